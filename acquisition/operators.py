@@ -1,0 +1,80 @@
+"""Operators answer a plan's instructions and prompts.
+
+The engine receives an operator; the plan never knows which one it has:
+automatic (the simulated technician), plain terminal, or the TUI.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from typing import Protocol, TextIO
+
+from .messages import Instruct, Log, Prompt
+
+
+class Operator(Protocol):
+    def instruct(self, msg: Instruct) -> str: ...
+
+    def prompt(self, msg: Prompt) -> str: ...
+
+    def log(self, msg: Log) -> None: ...
+
+
+class AutoOperator:
+    """Simulated technician: performs physical actions through ``actions`` and
+    answers every prompt with its default (or first) choice."""
+
+    def __init__(self, actions: dict[str, Callable[..., None]] | None = None,
+                 log_to: TextIO | None = None) -> None:
+        self.actions = actions or {}
+        self.log_to = log_to
+        self.transcript: list[str] = []
+
+    def instruct(self, msg: Instruct) -> str:
+        self.transcript.append(msg.text)
+        action = self.actions.get(msg.action)
+        if action is not None:
+            action(**msg.params)
+        return msg.choices[0]
+
+    def prompt(self, msg: Prompt) -> str:
+        self.transcript.append(msg.text)
+        return msg.default if msg.default is not None else msg.choices[0]
+
+    def log(self, msg: Log) -> None:
+        self.transcript.append(msg.text)
+        if self.log_to is not None:
+            print(msg.text, file=self.log_to, flush=True)
+
+
+class TerminalOperator:
+    """Plain terminal: prints instructions, Enter accepts the first choice."""
+
+    def __init__(self, stdin: TextIO = sys.stdin, stdout: TextIO = sys.stdout) -> None:
+        self.stdin = stdin
+        self.stdout = stdout
+
+    def _ask(self, text: str, choices: tuple[str, ...], default: str | None) -> str:
+        default = default or choices[0]
+        while True:
+            print(f"{text} [{'/'.join(choices)}] (Enter = {default}): ", end="", file=self.stdout, flush=True)
+            line = self.stdin.readline()
+            if not line:  # EOF: treat as abort if offered
+                return "abort" if "abort" in choices else default
+            answer = line.strip().lower()
+            if not answer:
+                return default
+            matches = [c for c in choices if c.startswith(answer)]
+            if len(matches) == 1:
+                return matches[0]
+            print(f"  please answer one of: {', '.join(choices)}", file=self.stdout)
+
+    def instruct(self, msg: Instruct) -> str:
+        return self._ask(msg.text, msg.choices, None)
+
+    def prompt(self, msg: Prompt) -> str:
+        return self._ask(msg.text, msg.choices, msg.default)
+
+    def log(self, msg: Log) -> None:
+        print(msg.text, file=self.stdout, flush=True)

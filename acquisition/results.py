@@ -1,0 +1,55 @@
+"""Write processing results next to a run: results/profile.csv, profile.png, summary.json."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from processing.straightness import StraightnessResult  # noqa: E402
+
+from .runstore import write_json_atomic  # noqa: E402
+
+LINE_LABELS = {"endpoint": "end-point line", "least_squares": "least-squares line",
+               "minimum_zone": "minimum-zone line"}
+
+
+def write_straightness_results(run_dir: Path, result: StraightnessResult) -> Path:
+    """Write the result files; return the results directory."""
+    out = Path(run_dir) / "results"
+    out.mkdir(exist_ok=True)
+    prof = result.profile.copy()
+    for name, fit in result.lines.items():
+        prof[f"dev_{name}_um"] = fit.deviations_um
+    tmp = out / ".profile.csv.tmp"
+    prof.to_csv(tmp, index=False, float_format="%.6f")
+    tmp.replace(out / "profile.csv")
+    write_json_atomic(out / "summary.json", result.to_dict())
+    plot_profile(result, out / "profile.png")
+    return out
+
+
+def plot_profile(result: StraightnessResult, path: Path) -> None:
+    """Profile with its reference lines; straightness per line in the legend."""
+    x = result.profile["x_mm"].to_numpy()
+    h = result.profile["height_um"].to_numpy()
+    fig, ax = plt.subplots(figsize=(9, 4.5), dpi=110)
+    ax.plot(x, h, "o-", color="black", lw=1.2, ms=4, label="surface profile")
+    xx = np.array([x.min(), x.max()]) if len(x) else np.array([0.0, 1.0])
+    for (name, fit), style in zip(result.lines.items(), ("--", ":", "-."), strict=False):
+        ax.plot(xx, fit.intercept_um + fit.slope_um_per_mm * xx, style,
+                label=f"{LINE_LABELS.get(name, name)}: straightness {fit.straightness_um:.3f} um")
+    ax.set_xlabel("x (mm), position of the sensor sample point from the first station")
+    ax.set_ylabel("height (um), +Y")
+    ax.set_title(f"Guideway base-surface profile ({result.method} decoupling)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp)
+    plt.close(fig)
+    tmp.replace(path)

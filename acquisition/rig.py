@@ -1,0 +1,64 @@
+"""The devices a run uses, opened from URLs (real ports or emulator endpoints)."""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass
+from typing import Any
+
+from drivers.errors import DriverError
+from drivers.interferometer import InterferometerController
+from drivers.keyence_lkg import KeyenceLKG
+from drivers.sensor import DisplacementSensor
+
+from .errors import UserError
+
+SENSOR_DRIVERS: dict[str, type[DisplacementSensor]] = {"keyence-lkg": KeyenceLKG}
+
+
+@dataclass
+class Rig:
+    """An open displacement sensor and interferometer controller."""
+
+    sensor: DisplacementSensor
+    controller: InterferometerController
+
+    def instruments(self) -> dict[str, dict[str, Any]]:
+        """run.json ``instruments``: protocol, endpoint, identity of each device."""
+        return {
+            "sensor": {"protocol": self.sensor.protocol, "endpoint": self.sensor.endpoint,
+                       **self.sensor.identify()},
+            "interferometer": {"protocol": f"modbus ({self.controller.word_order})",
+                               "endpoint": self.controller.endpoint, **self.controller.identify()},
+        }
+
+    def close(self) -> None:
+        for dev in (self.sensor, self.controller):
+            with contextlib.suppress(Exception):  # closing is best effort
+                dev.close()
+
+
+def open_sensor(protocol: str, url: str, *, baudrate: int = 115200) -> DisplacementSensor:
+    """Open a displacement sensor by protocol name (``keyence-lkg``) and pyserial URL."""
+    try:
+        cls = SENSOR_DRIVERS[protocol]
+    except KeyError:
+        raise UserError(
+            f"unknown sensor protocol {protocol!r}; use one of: {', '.join(SENSOR_DRIVERS)}"
+        ) from None
+    try:
+        return cls.from_url(url, baudrate=baudrate)  # type: ignore[attr-defined]
+    except DriverError as exc:
+        raise UserError(f"{exc}; check the port name and that the sensor is connected") from exc
+
+
+def open_rig(sensor_protocol: str, sensor_url: str, controller_url: str, *, baudrate: int = 115200,
+             word_order: str = "ABCD") -> Rig:
+    """Open both devices; a one-line :class:`UserError` if either is unreachable."""
+    sensor = open_sensor(sensor_protocol, sensor_url, baudrate=baudrate)
+    try:
+        controller = InterferometerController.from_url(controller_url, word_order=word_order)
+    except (DriverError, ValueError) as exc:
+        sensor.close()
+        raise UserError(f"{exc}; check the controller address and that it is switched on") from exc
+    return Rig(sensor, controller)

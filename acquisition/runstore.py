@@ -1,0 +1,238 @@
+"""Crash-safe run directories (docs/run-format.md).
+
+Writing: :class:`RunStore` is an engine subscriber.  ``run.json`` is always
+replaced atomically (temp file, fsync, rename, fsync of the directory);
+every point is appended to ``points.csv``, flushed and fsynced before the
+engine continues, so a crash or kill loses at most the point being captured.
+
+Reading: :func:`load_run` validates the directory and returns the metadata
+and the points as a DataFrame, or raises :class:`RunFormatError` with a
+one-line reason.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any, TextIO
+
+import pandas as pd
+
+from processing.columns import STRAIGHTNESS_POINTS
+
+from .errors import RunFormatError
+
+FORMAT = "guideway-run"
+VERSION = 1
+SUPPORTED_VERSIONS = (1,)
+POINT_COLUMNS = {"straightness": STRAIGHTNESS_POINTS}
+STATUS_BY_EXIT = {"success": "complete", "abort": "aborted", "fail": "aborted"}
+
+
+def utc_now_iso() -> str:
+    return datetime.now(UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
+
+
+def _fsync_dir(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def write_json_atomic(path: Path, obj: Any) -> None:
+    """Replace ``path`` with ``obj`` as JSON; never leaves a half-written file."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            json.dump(obj, f, indent=2, allow_nan=False)
+            f.write("\n")
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    _fsync_dir(path.parent)
+
+
+def format_cell(value: Any) -> str:
+    """CSV text of one value: ints as ints, floats round-trip exactly (repr)."""
+    if isinstance(value, bool):
+        return str(int(value))
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value) if math.isfinite(value) else "nan"
+    return str(value)
+
+
+class RunStore:
+    """Engine subscriber that writes a run directory.
+
+    ``header`` holds run.json's descriptive fields (machine, axis, operator,
+    notes, setup, instruments); the store adds format, version, kind, status
+    and timestamps.
+    """
+
+    def __init__(self, run_dir: Path | str, header: dict[str, Any]) -> None:
+        self.run_dir = Path(run_dir)
+        self.header = header
+        self.meta: dict[str, Any] = {}
+        self._csv: TextIO | None = None
+        self._columns: tuple[str, ...] = ()
+        self.points_written = 0
+
+    def prepare(self) -> None:
+        """Create the directory; refuse one that already holds files."""
+        if self.run_dir.exists():
+            if not self.run_dir.is_dir():
+                raise RunFormatError(f"{self.run_dir} exists and is not a directory; choose another --out")
+            if any(self.run_dir.iterdir()):
+                raise RunFormatError(f"{self.run_dir} is not empty; choose a new directory for the run")
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+
+    def __call__(self, name: str, doc: dict[str, Any]) -> None:
+        if name == "start":
+            self._start(doc)
+        elif name == "event":
+            self._event(doc)
+        elif name == "stop":
+            self._stop(doc)
+
+    def _start(self, doc: dict[str, Any]) -> None:
+        self.prepare()
+        kind = doc["kind"]
+        self._columns = POINT_COLUMNS[kind]
+        self.meta = {
+            "format": FORMAT,
+            "version": VERSION,
+            "kind": kind,
+            "status": "in-progress",
+            "created": utc_now_iso(),
+            "uid": doc["uid"],
+            **self.header,
+            "points": 0,
+        }
+        write_json_atomic(self.run_dir / "run.json", self.meta)
+        self._csv = open(self.run_dir / "points.csv", "w", encoding="utf-8", newline="")  # noqa: SIM115
+        self._csv.write(",".join(self._columns) + "\n")
+        self._sync_csv()
+        _fsync_dir(self.run_dir)
+
+    def _sync_csv(self) -> None:
+        assert self._csv is not None
+        self._csv.flush()
+        os.fsync(self._csv.fileno())
+
+    def _event(self, doc: dict[str, Any]) -> None:
+        if self._csv is None:
+            raise RuntimeError("event before start")
+        data = doc["data"]
+        missing = [c for c in self._columns if c not in data]
+        if missing:
+            raise ValueError(f"record lacks columns {missing}")
+        self._csv.write(",".join(format_cell(data[c]) for c in self._columns) + "\n")
+        self._sync_csv()
+        self.points_written += 1
+
+    def _stop(self, doc: dict[str, Any]) -> None:
+        if self._csv is not None:
+            self._sync_csv()
+            self._csv.close()
+            self._csv = None
+        self.meta.update(
+            status=STATUS_BY_EXIT.get(doc["exit_status"], "aborted"),
+            ended=utc_now_iso(),
+            end_reason=doc.get("reason", ""),
+            points=self.points_written,
+        )
+        write_json_atomic(self.run_dir / "run.json", self.meta)
+
+
+@dataclass(frozen=True)
+class LoadedRun:
+    """A run directory read back: run.json and the points."""
+
+    path: Path
+    meta: dict[str, Any]
+    points: pd.DataFrame
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def kind(self) -> str:
+        return str(self.meta["kind"])
+
+
+def load_run(run_dir: Path | str) -> LoadedRun:
+    """Read and validate a run directory of any supported format version."""
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise RunFormatError(f"{run_dir}: no such run directory")
+    meta_path = run_dir / "run.json"
+    if not meta_path.is_file():
+        raise RunFormatError(f"{run_dir}: no run.json; this is not a run directory")
+    try:
+        meta = json.loads(meta_path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise RunFormatError(f"{meta_path}: not valid JSON ({exc})") from exc
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise RunFormatError(f"{meta_path}: not a guideway run (\"format\" must be \"{FORMAT}\")")
+    version = meta.get("version")
+    if version not in SUPPORTED_VERSIONS:
+        raise RunFormatError(
+            f"{meta_path}: run format version {version!r} is not supported by this tool "
+            f"(supports {', '.join(map(str, SUPPORTED_VERSIONS))}); upgrade guideway"
+        )
+    kind = meta.get("kind")
+    if kind not in POINT_COLUMNS:
+        raise RunFormatError(f"{meta_path}: unknown run kind {kind!r}")
+    points, warnings = _read_points(run_dir / "points.csv", POINT_COLUMNS[kind])
+    return LoadedRun(run_dir, meta, points, tuple(warnings))
+
+
+def _read_points(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame, list[str]]:
+    if not path.is_file():
+        raise RunFormatError(f"{path.parent}: no points.csv")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise RunFormatError(f"{path}: not UTF-8 text ({exc})") from exc
+    warnings = []
+    if text and not text.endswith("\n"):
+        # A crash between write and flush can leave a partial last line: drop it, say so.
+        cut = text.rfind("\n") + 1
+        warnings.append(f"{path.name}: ignored an incomplete last line ({text[cut:][:40]!r})")
+        text = text[:cut]
+    rows = list(csv.reader(io.StringIO(text)))
+    if not rows:
+        raise RunFormatError(f"{path}: empty file (no header)")
+    header = [h.strip() for h in rows[0]]
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise RunFormatError(f"{path}: missing column(s) {', '.join(missing)}")
+    idx = [header.index(c) for c in columns]
+    data: dict[str, list[float]] = {c: [] for c in columns}
+    for lineno, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            raise RunFormatError(f"{path}:{lineno}: expected {len(header)} fields, found {len(row)}")
+        for c, i in zip(columns, idx, strict=True):
+            try:
+                data[c].append(float(row[i]))
+            except ValueError:
+                raise RunFormatError(f"{path}:{lineno}: column {c} is not a number: {row[i]!r}") from None
+    df = pd.DataFrame(data, columns=list(columns))
+    if "station" in df:
+        if not all(float(v).is_integer() for v in df["station"]):
+            raise RunFormatError(f"{path}: station numbers must be integers")
+        df["station"] = df["station"].astype(int)
+    return df, warnings

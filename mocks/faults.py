@@ -1,0 +1,90 @@
+"""Fault plans for emulators: what goes wrong, on which device, at which request.
+
+Spec syntax (CLI ``--faults`` and tests), comma-separated entries::
+
+    DEVICE:KIND@N[xCOUNT][=ARG]
+
+DEVICE is ``sensor`` or ``controller``; the fault starts at the N-th request
+to that device (1-based) and lasts COUNT requests (default: every request
+from then on).  Kinds:
+
+* sensor: ``garbage`` (reply replaced by noise bytes), ``drop`` (no reply),
+  ``delay`` (reply ARG seconds late, default 1), ``error`` (device error code
+  ARG, default the protocol's "other error"), ``corrupt`` (bit 7 of one reply
+  byte flipped).
+* controller: ``freeze-seq`` (sequence counter stops), ``beam-loss``
+  (measurement ends with error 1, beam interrupted), ``exception`` (Modbus
+  exception code ARG, default 4 device failure), ``delay`` (reply ARG seconds
+  late).
+"""
+
+from __future__ import annotations
+
+import re
+import threading
+from dataclasses import dataclass
+
+KINDS = {
+    "sensor": {"garbage", "drop", "delay", "error", "corrupt"},
+    "controller": {"freeze-seq", "beam-loss", "exception", "delay"},
+}
+_SPEC = re.compile(r"^(?P<dev>[a-z]+):(?P<kind>[a-z-]+)@(?P<at>\d+)(?:x(?P<count>\d+))?(?:=(?P<arg>[^,]+))?$")
+
+
+@dataclass(frozen=True)
+class Fault:
+    device: str
+    kind: str
+    at: int
+    count: int | None = None
+    arg: str | None = None
+
+    def active(self, n: int) -> bool:
+        return n >= self.at and (self.count is None or n < self.at + self.count)
+
+
+class FaultSpecError(ValueError):
+    """A fault spec that cannot be parsed."""
+
+
+class FaultPlan:
+    """Counts requests per device and says which fault (if any) applies to each."""
+
+    def __init__(self, faults: tuple[Fault, ...] = ()) -> None:
+        self.faults = faults
+        self._counts: dict[str, int] = {}
+        self._lock = threading.Lock()
+
+    @classmethod
+    def parse(cls, spec: str | None) -> FaultPlan:
+        faults = []
+        for part in (spec or "").split(","):
+            part = part.strip()
+            if not part:
+                continue
+            m = _SPEC.match(part)
+            if not m:
+                raise FaultSpecError(f"bad fault spec {part!r}; expected DEVICE:KIND@N[xCOUNT][=ARG]")
+            dev, kind = m["dev"], m["kind"]
+            if dev not in KINDS:
+                raise FaultSpecError(f"unknown device {dev!r} in fault {part!r}; use sensor or controller")
+            if kind not in KINDS[dev]:
+                raise FaultSpecError(f"unknown {dev} fault {kind!r}; use one of {', '.join(sorted(KINDS[dev]))}")
+            at = int(m["at"])
+            if at < 1:
+                raise FaultSpecError(f"fault {part!r}: N counts requests from 1")
+            faults.append(Fault(dev, kind, at, int(m["count"]) if m["count"] else None, m["arg"]))
+        return cls(tuple(faults))
+
+    def next_request(self, device: str) -> Fault | None:
+        """Count one request to ``device``; return the fault that applies to it."""
+        with self._lock:
+            n = self._counts.get(device, 0) + 1
+            self._counts[device] = n
+        for f in self.faults:
+            if f.device == device and f.active(n):
+                return f
+        return None
+
+    def requests(self, device: str) -> int:
+        return self._counts.get(device, 0)

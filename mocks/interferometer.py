@@ -1,0 +1,231 @@
+"""Interferometer controller emulator: pymodbus's own server (SimDevice/SimData)
+with the register map of docs/modbus-map.md, written independently of
+``drivers`` (own addresses, own float encoding with ``struct``).
+
+Behaviour is a small state machine advanced on every Modbus access: a trigger
+sets *busy*; once ``measure_time_s`` has passed (checked at the next access)
+the capture is taken from the :class:`~mocks.world.World`, the data registers
+are filled, the sequence counter increments and *busy* clears.  The command
+register reads 0 again as soon as a command is accepted.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import struct
+import threading
+import time
+from collections.abc import Callable
+
+from pymodbus import FramerType
+from pymodbus.constants import ExcCodes
+from pymodbus.pdu.device import ModbusDeviceIdentification
+from pymodbus.server import ModbusTcpServer
+from pymodbus.simulator import DataType, SimData, SimDevice
+
+from .faults import FaultPlan
+from .world import World
+
+# Register addresses (docs/modbus-map.md, version 1), holding registers, 0-based.
+REG_COMMAND, REG_STATUS, REG_SEQUENCE, REG_ERROR = 0, 1, 2, 3
+REG_POSITION = 100  # FLOAT64, 4 registers
+REG_CHANNELS = 104  # 5 x FLOAT32: stry um, strz um, pitch urad, yaw urad, roll urad
+REG_ENV = 120  # 4 x FLOAT32: air temp C, pressure hPa, humidity %RH, material temp C
+DATA_END = 128
+
+CMD_TRIGGER, CMD_ZERO, CMD_CLEAR = 1, 4, 5
+ST_READY, ST_BUSY, ST_VALID, ST_ERROR, ST_BEAM = 1, 2, 4, 8, 16
+ERR_BEAM, ERR_BUSY = 1, 5
+
+
+def float_registers(value: float, fmt: str, word_order: str) -> list[int]:
+    """Registers of a big-endian IEEE float (``fmt`` '>f' or '>d') in the given word order."""
+    raw = struct.pack(fmt, value)
+    words = [int.from_bytes(raw[i : i + 2], "big") for i in range(0, len(raw), 2)]
+    if word_order == "CDAB":
+        words.reverse()
+    elif word_order != "ABCD":
+        raise ValueError(f"unsupported word order {word_order}")
+    return words
+
+
+class InterferometerEmulator:
+    """Register-level behaviour of the controller; plug :meth:`action` into a SimDevice."""
+
+    def __init__(
+        self,
+        world: World,
+        *,
+        word_order: str = "ABCD",
+        measure_time_s: float = 0.0,
+        clock: Callable[[], float] = time.monotonic,
+        faults: FaultPlan | None = None,
+    ) -> None:
+        self.world = world
+        self.faults = faults or FaultPlan()
+        self._frozen = False
+        self._beam_fault = False
+        self.word_order = word_order
+        self.measure_time_s = measure_time_s
+        self._clock = clock
+        self.sequence = 0
+        self.error_code = 0
+        self.status = ST_READY | ST_BEAM
+        self._pending: tuple[int, float] | None = None
+        self._data = [0] * (DATA_END - REG_POSITION)
+
+    def device(self, device_id: int = 1) -> SimDevice:
+        """The SimDevice that serves this controller's registers."""
+        return SimDevice(
+            id=device_id,
+            simdata=[
+                SimData(REG_COMMAND, values=0, datatype=DataType.REGISTERS),
+                SimData(REG_STATUS, count=3, values=0, datatype=DataType.REGISTERS, readonly=True),
+                SimData(REG_POSITION, count=DATA_END - REG_POSITION, values=0,
+                        datatype=DataType.REGISTERS, readonly=True),
+            ],
+            action=self.action,
+        )
+
+    # -- state machine -------------------------------------------------------------------
+    def _complete(self, kind: int) -> None:
+        w = self.world
+        beam_ok = not (w.beam_blocked or self._beam_fault)
+        if kind == CMD_ZERO:
+            w.set_datum()
+        if not beam_ok:
+            self.error_code = ERR_BEAM
+            self.status = ST_READY | ST_ERROR
+        else:
+            c = w.capture()
+            env = w.environment_now()
+            regs = float_registers(c.position_mm, ">d", self.word_order)
+            for v in (c.stry_um, c.strz_um, c.pitch_urad, c.yaw_urad, c.roll_urad):
+                regs += float_registers(v, ">f", self.word_order)
+            regs += [0] * (REG_ENV - REG_CHANNELS - 10)
+            for v in env:
+                regs += float_registers(v, ">f", self.word_order)
+            self._data = regs
+            self.status = ST_READY | ST_VALID | ST_BEAM
+        if not self._frozen:
+            self.sequence = (self.sequence + 1) & 0xFFFF
+
+    def _advance(self) -> None:
+        if self._pending is not None and self._clock() >= self._pending[1]:
+            kind = self._pending[0]
+            self._pending = None
+            self._complete(kind)
+
+    def _command(self, cmd: int) -> ExcCodes | None:
+        if cmd == 0:
+            return None
+        if cmd in (CMD_TRIGGER, CMD_ZERO):
+            if self._pending is not None:
+                return ExcCodes.DEVICE_BUSY
+            if self.status & ST_ERROR:
+                return None  # the error stays latched until cleared
+            self.status = (self.status | ST_BUSY) & ~ST_VALID
+            self._pending = (cmd, self._clock() + self.measure_time_s)
+            self._advance()
+            return None
+        if cmd == CMD_CLEAR:
+            self.error_code = 0
+            self.status = (self.status & ~ST_ERROR) | (0 if self.world.beam_blocked else ST_BEAM)
+            return None
+        return ExcCodes.ILLEGAL_VALUE
+
+    def _sync(self, start: int, regs: list[int]) -> None:
+        regs[REG_STATUS - start] = self.status
+        regs[REG_SEQUENCE - start] = self.sequence
+        regs[REG_ERROR - start] = self.error_code
+        regs[REG_POSITION - start : DATA_END - start] = self._data
+
+    async def action(
+        self,
+        function_code: int,
+        start_address: int,
+        address: int,
+        count: int,
+        current_registers: list[int],
+        set_values: list[int] | list[bool] | None,
+    ) -> ExcCodes | None:
+        """pymodbus SimDevice hook: runs before each access is served."""
+        fault = self.faults.next_request("controller")
+        self._frozen = fault is not None and fault.kind == "freeze-seq"
+        self._beam_fault = fault is not None and fault.kind == "beam-loss"
+        if fault is not None and fault.kind == "exception":
+            return ExcCodes(int(fault.arg or 4))
+        if fault is not None and fault.kind == "delay":
+            await asyncio.sleep(float(fault.arg or 1.0))
+        self._advance()
+        result = None
+        if set_values is not None and address == REG_COMMAND:
+            result = self._command(int(set_values[0]))
+            set_values[0] = 0  # self-clearing command register
+        self._sync(start_address, current_registers)
+        return result
+
+
+def identity() -> ModbusDeviceIdentification:
+    return ModbusDeviceIdentification(
+        info_name={
+            "VendorName": "guideway-sim",
+            "ProductCode": "SIM-6DOF",
+            "MajorMinorRevision": "1.0",
+            "ProductName": "Simulated 6-DOF interferometer controller",
+            "ModelName": "SIM-6DOF-IFM",
+        }
+    )
+
+
+class ModbusServerThread:
+    """A pymodbus TCP server on 127.0.0.1 running in its own thread and event loop."""
+
+    def __init__(self, devices: SimDevice | list[SimDevice], *, port: int = 0,
+                 framer: FramerType = FramerType.SOCKET) -> None:
+        self._devices = devices
+        self._framer = framer
+        self._want_port = port
+        self._loop = asyncio.new_event_loop()
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+        self.server: ModbusTcpServer | None = None
+        self.port = 0
+        self._thread = threading.Thread(target=self._run, name="modbus-sim", daemon=True)
+        self._thread.start()
+        if not self._ready.wait(10):
+            raise RuntimeError("simulated Modbus server did not start")
+        if self._error is not None:
+            raise RuntimeError(f"simulated Modbus server failed: {self._error}") from self._error
+
+    @property
+    def url(self) -> str:
+        return f"modbus-tcp://127.0.0.1:{self.port}"
+
+    async def _start(self) -> None:
+        self.server = ModbusTcpServer(self._devices, address=("127.0.0.1", self._want_port),
+                                      framer=self._framer, identity=identity())
+        await self.server.serve_forever(background=True)
+        self.port = self.server.transport.sockets[0].getsockname()[1]  # type: ignore[union-attr]
+
+    def _run(self) -> None:
+        asyncio.set_event_loop(self._loop)
+        try:
+            self._loop.run_until_complete(self._start())
+        except BaseException as exc:  # reported to the starting thread
+            self._error = exc
+            self._ready.set()
+            return
+        self._ready.set()
+        self._loop.run_forever()
+        self._loop.close()
+
+    def stop(self) -> None:
+        if self.server is not None and self._loop.is_running():
+            fut = asyncio.run_coroutine_threadsafe(self.server.shutdown(), self._loop)
+            with contextlib.suppress(Exception):  # best effort at shutdown
+                fut.result(timeout=5)
+        if self._loop.is_running():
+            self._loop.call_soon_threadsafe(self._loop.stop)
+        self._thread.join(timeout=5)

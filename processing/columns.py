@@ -1,0 +1,29 @@
+"""Column schemas of the DataFrames processing consumes and produces.
+
+``STRAIGHTNESS_POINTS`` are the columns of a straightness run's points.csv
+(run format version 1); processing functions take a DataFrame with at least
+these columns.  Units are in the names.
+"""
+
+STRAIGHTNESS_POINTS: tuple[str, ...] = (
+    "station",          # station index k (0 = datum)
+    "x_mm",             # nominal position of the block, k * block length
+    "time_s",           # seconds since the run started
+    "lin_um",           # P displacement along X minus nominal travel
+    "stry_um",          # P displacement along Y (straightness Y)
+    "strz_um",          # P displacement along Z (straightness Z)
+    "pitch_urad",       # block rotation about Z
+    "yaw_urad",         # block rotation about Y
+    "roll_urad",        # block rotation about X
+    "sensor_mm",        # displacement sensor reading, sensor's own sign (see sensor_sign)
+    "air_temp_c",
+    "air_pressure_hpa",
+    "humidity_pct",
+    "material_temp_c",
+)
+
+PROFILE: tuple[str, ...] = (
+    "station",    # station index
+    "x_mm",       # position of the surface sample point relative to the first station
+    "height_um",  # surface height (+Y) at the sample point relative to the first station
+)

@@ -1,0 +1,114 @@
+"""The command line: one JSON object with --json, one-line errors with exit
+code 2, and a run killed with SIGKILL mid-capture stays processable."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from acquisition.runstore import load_run
+from tui.cli import main
+
+from .waiting import wait_for
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def guideway(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "tui.cli", *args], cwd=ROOT, capture_output=True,
+                          text=True, timeout=timeout)
+
+
+@pytest.fixture(scope="module")
+def demo_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("cli") / "run"
+    res = guideway("demo", "--out", str(out), "--stations", "6", "--seed", "3")
+    assert res.returncode == 0, res.stderr
+    assert "straightness (least squares reference line)" in res.stdout
+    return out
+
+
+def test_process_json_prints_exactly_one_object(demo_run: Path) -> None:
+    res = guideway("process", str(demo_run), "--json", "--no-write")
+    assert res.returncode == 0, res.stderr
+    obj = json.loads(res.stdout)  # fails if anything else is printed
+    assert obj["kind"] == "straightness"
+    assert [p["station"] for p in obj["profile"]] == list(range(6))
+    assert obj["profile"][0] == {"station": 0, "x_mm": 0.0, "height_um": 0.0}
+    assert set(obj["straightness_um"]) >= {"endpoint", "least_squares"}
+    assert obj["straightness_um"]["endpoint"] > 0
+
+
+def one_line_error(res: subprocess.CompletedProcess[str], *fragments: str) -> None:
+    assert res.returncode == 2
+    lines = [ln for ln in res.stderr.splitlines() if ln.startswith("guideway: error:")]
+    assert len(lines) == 1, res.stderr
+    assert "Traceback" not in res.stderr
+    for frag in fragments:
+        assert frag in lines[0]
+
+
+def test_missing_run_directory(tmp_path: Path) -> None:
+    one_line_error(guideway("process", str(tmp_path / "nope")), "no such run directory")
+
+
+def test_malformed_run_directory(tmp_path: Path) -> None:
+    (tmp_path / "run.json").write_text("{")
+    one_line_error(guideway("process", str(tmp_path)), "run.json", "not valid JSON")
+
+
+def test_usage_errors_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        main(["demo", "--stations", "many"])
+    assert info.value.code == 2
+    assert "invalid int value" in capsys.readouterr().err
+
+
+def test_demo_refuses_non_empty_out(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "x").write_text("keep")
+    assert main(["demo", "--out", str(tmp_path), "--stations", "3"]) == 2
+    assert "not empty" in capsys.readouterr().err
+    assert (tmp_path / "x").read_text() == "keep"
+
+
+def test_killed_run_keeps_every_written_point(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-m", "tui.cli", "demo", "--out", str(out), "--stations", "500",
+                             "--samples", "1"], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    points = out / "points.csv"
+    try:
+        wait_for(lambda: points.exists() and len(points.read_text().splitlines()) > 8,
+                 timeout_s=60, what="the demo to write points")
+    finally:
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait()
+    run = load_run(out)
+    assert run.meta["status"] == "in-progress"
+    n = len(run.points)
+    assert n >= 8 and run.points["station"].tolist() == list(range(n))
+    res = guideway("process", str(out), "--json", "--no-write")
+    assert res.returncode == 0 and "in-progress" in res.stderr
+    assert len(json.loads(res.stdout)["profile"]) == n
+
+
+@pytest.mark.parametrize(
+    ("faults", "fragments"),
+    [
+        ("sensor:garbage@6", ("displacement sensor", "non-ASCII bytes")),
+        ("sensor:error@6=22", ("displacement sensor", "Invalid parameter error")),
+        ("controller:freeze-seq@12", ("trigger not completed", "sequence")),
+    ],
+)
+def test_misbehaving_device_one_line_error_and_points_kept(tmp_path: Path, faults: str, fragments) -> None:
+    out = tmp_path / "run"
+    res = guideway("demo", "--out", str(out), "--stations", "8", "--samples", "2", "--faults", faults)
+    one_line_error(res, *fragments)
+    run = load_run(out)
+    assert run.meta["status"] == "aborted" and run.meta["end_reason"]
+    assert len(run.points) >= 1 and run.points["station"].tolist() == list(range(len(run.points)))

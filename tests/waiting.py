@@ -1,0 +1,16 @@
+"""Bounded polling waits: the only place tests wait for something to happen."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+
+def wait_for(condition: Callable[[], bool], *, timeout_s: float = 30.0, interval_s: float = 0.02,
+             what: str = "condition") -> None:
+    """Poll ``condition`` until it is true; fail after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+        time.sleep(interval_s)
