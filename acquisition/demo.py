@@ -20,7 +20,6 @@ from .errors import UserError
 from .evaluate import process_run_dir
 from .operators import AutoOperator
 from .plans import straightness_plan
-from .results import write_straightness_results
 from .rig import open_rig
 from .runstore import RunStore
 from .setup import DeviceSetup, StraightnessSetup
@@ -86,16 +85,8 @@ def run_demo(
     print(f"run {outcome.exit_status}: {outcome.num_events} stations written to {run_dir}", file=stream)
     if outcome.exit_status != "success":
         raise UserError(f"demo run ended early ({outcome.reason}); the points captured are in {run_dir}")
-    _, result = process_run_dir(run_dir)
-    results_dir = write_straightness_results(run_dir, result)
-    print_summary(result, stream)
+    _, evaluation = process_run_dir(run_dir)
+    results_dir = evaluation.write(run_dir / "results")
+    evaluation.print_summary(stream)
     print(f"results: {results_dir / 'profile.csv'}, {results_dir / 'profile.png'}", file=stream)
-    return DemoResult(run_dir, outcome, result, sim)
-
-
-def print_summary(result: StraightnessResult, stream: TextIO) -> None:
-    n = len(result.profile)
-    span = float(result.profile["x_mm"].iloc[-1]) if n else 0.0
-    print(f"stations: {n}, travel {span:g} mm, decoupling: {result.method}", file=stream)
-    for name, value in result.straightness_um().items():
-        print(f"  straightness ({name.replace('_', ' ')} reference line): {value:.3f} um", file=stream)
+    return DemoResult(run_dir, outcome, evaluation.result, sim)  # type: ignore[attr-defined]

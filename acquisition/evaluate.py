@@ -1,33 +1,44 @@
-"""Process a saved run: load it, evaluate it, write the results."""
+"""Process a saved run: load it, pick the evaluator for its kind, evaluate.
+
+An evaluator takes a :class:`~acquisition.runstore.LoadedRun` and returns an
+object with ``to_dict()`` (the ``guideway process --json`` object),
+``write(results_dir)`` and ``print_summary(stream)``.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-
-from processing.geometry import BlockGeometry
-from processing.straightness import StraightnessResult, evaluate_straightness
+from typing import Any, Protocol, TextIO
 
 from .errors import RunFormatError
+from .evaluate_straightness import evaluate_straightness_run
 from .runstore import LoadedRun, load_run
 
 
-def evaluate_run(run: LoadedRun, *, method: str = "first-order") -> StraightnessResult:
-    """Evaluate a loaded straightness run."""
-    if run.kind != "straightness":
-        raise RunFormatError(f"{run.path}: cannot evaluate a {run.kind!r} run yet")
-    try:
-        geometry = BlockGeometry.from_dict(run.meta["setup"]["geometry"])
-    except (KeyError, TypeError, ValueError) as exc:
-        raise RunFormatError(f"{run.path}/run.json: invalid setup.geometry ({exc})") from exc
-    if len(run.points) < 2:
-        raise RunFormatError(f"{run.path}: {len(run.points)} point(s) recorded; need at least 2 to evaluate")
-    try:
-        return evaluate_straightness(run.points, geometry, method=method)
-    except ValueError as exc:
-        raise RunFormatError(f"{run.path}: {exc}") from exc
+class Evaluation(Protocol):
+    def to_dict(self) -> dict[str, Any]: ...
+
+    def write(self, results_dir: Path) -> Path: ...
+
+    def print_summary(self, stream: TextIO) -> None: ...
 
 
-def process_run_dir(run_dir: Path | str, *, method: str = "first-order") -> tuple[LoadedRun, StraightnessResult]:
+EVALUATORS: dict[str, Callable[..., Evaluation]] = {
+    "straightness": evaluate_straightness_run,
+}
+
+
+def evaluate_run(run: LoadedRun, **options: Any) -> Evaluation:
+    """Evaluate a loaded run with the evaluator for its kind."""
+    try:
+        evaluator = EVALUATORS[run.kind]
+    except KeyError:
+        raise RunFormatError(f"{run.path}: no evaluator for {run.kind!r} runs in this version") from None
+    return evaluator(run, **options)
+
+
+def process_run_dir(run_dir: Path | str, **options: Any) -> tuple[LoadedRun, Evaluation]:
     """Load and evaluate ``run_dir``."""
     run = load_run(run_dir)
-    return run, evaluate_run(run, method=method)
+    return run, evaluate_run(run, **options)

@@ -18,9 +18,9 @@ LINE_LABELS = {"endpoint": "end-point line", "least_squares": "least-squares lin
                "minimum_zone": "minimum-zone line"}
 
 
-def write_straightness_results(run_dir: Path, result: StraightnessResult) -> Path:
-    """Write the result files; return the results directory."""
-    out = Path(run_dir) / "results"
+def write_straightness_results(results_dir: Path, result: StraightnessResult) -> Path:
+    """Write profile.csv, summary.json and profile.png into ``results_dir``; return it."""
+    out = Path(results_dir)
     out.mkdir(exist_ok=True)
     prof = result.profile.copy()
     for name, fit in result.lines.items():

@@ -25,14 +25,27 @@ from typing import Any, TextIO
 
 import pandas as pd
 
-from processing.columns import STRAIGHTNESS_POINTS
+from processing.columns import POSITIONING_LINEAR, POSITIONING_ROTARY, STRAIGHTNESS_POINTS
 
 from .errors import RunFormatError
 
 FORMAT = "guideway-run"
 VERSION = 1
 SUPPORTED_VERSIONS = (1,)
-POINT_COLUMNS = {"straightness": STRAIGHTNESS_POINTS}
+KINDS = ("straightness", "positioning")
+
+
+def point_columns(kind: str, axis_type: str | None = None) -> tuple[str, ...]:
+    """The points.csv columns of a run kind (and axis type for positioning runs)."""
+    if kind == "straightness":
+        return STRAIGHTNESS_POINTS
+    if kind == "positioning":
+        if axis_type == "rotary":
+            return POSITIONING_ROTARY
+        if axis_type in (None, "linear"):
+            return POSITIONING_LINEAR
+        raise RunFormatError(f"unknown axis_type {axis_type!r} (use linear or rotary)")
+    raise RunFormatError(f"unknown run kind {kind!r}")
 STATUS_BY_EXIT = {"success": "complete", "abort": "aborted", "fail": "aborted"}
 
 
@@ -112,7 +125,7 @@ class RunStore:
     def _start(self, doc: dict[str, Any]) -> None:
         self.prepare()
         kind = doc["kind"]
-        self._columns = POINT_COLUMNS[kind]
+        self._columns = point_columns(kind, self.header.get("axis_type"))
         self.meta = {
             "format": FORMAT,
             "version": VERSION,
@@ -194,9 +207,9 @@ def load_run(run_dir: Path | str) -> LoadedRun:
             f"(supports {', '.join(map(str, SUPPORTED_VERSIONS))}); upgrade guideway"
         )
     kind = meta.get("kind")
-    if kind not in POINT_COLUMNS:
+    if kind not in KINDS:
         raise RunFormatError(f"{meta_path}: unknown run kind {kind!r}")
-    points, warnings = _read_points(run_dir / "points.csv", POINT_COLUMNS[kind])
+    points, warnings = _read_points(run_dir / "points.csv", point_columns(kind, meta.get("axis_type")))
     return LoadedRun(run_dir, meta, points, tuple(warnings))
 
 
@@ -231,8 +244,9 @@ def _read_points(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame, li
             except ValueError:
                 raise RunFormatError(f"{path}:{lineno}: column {c} is not a number: {row[i]!r}") from None
     df = pd.DataFrame(data, columns=list(columns))
-    if "station" in df:
-        if not all(float(v).is_integer() for v in df["station"]):
-            raise RunFormatError(f"{path}: station numbers must be integers")
-        df["station"] = df["station"].astype(int)
+    for col in ("station", "run", "direction", "target_index"):
+        if col in df:
+            if not all(float(v).is_integer() for v in df[col]):
+                raise RunFormatError(f"{path}: column {col} must hold integers")
+            df[col] = df[col].astype(int)
     return df, warnings

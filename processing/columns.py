@@ -27,3 +27,18 @@ PROFILE: tuple[str, ...] = (
     "x_mm",       # position of the surface sample point relative to the first station
     "height_um",  # surface height (+Y) at the sample point relative to the first station
 )
+
+ENVIRONMENT: tuple[str, ...] = ("air_temp_c", "air_pressure_hpa", "humidity_pct", "material_temp_c")
+ERROR_CHANNELS: tuple[str, ...] = ("stry_um", "strz_um", "pitch_urad", "yaw_urad", "roll_urad")
+
+# points.csv of an ISO 230-2 positioning run (run format version 2).  ``direction``
+# is +1 or -1; ``run`` counts the approaches in each direction from 1.  A linear
+# axis uses target_mm/reading_mm, a rotary axis target_deg/reading_deg.
+POSITIONING_LINEAR: tuple[str, ...] = (
+    "run", "direction", "target_index", "target_mm", "reading_mm", "time_s",
+    *ERROR_CHANNELS, *ENVIRONMENT,
+)
+POSITIONING_ROTARY: tuple[str, ...] = (
+    "run", "direction", "target_index", "target_deg", "reading_deg", "time_s",
+    *ERROR_CHANNELS, *ENVIRONMENT,
+)

@@ -15,7 +15,8 @@ V1 = Path(__file__).resolve().parents[1] / "data" / "runs" / "v1-straightness"
 
 
 def test_v1_run_loads_and_processes() -> None:
-    run, result = process_run_dir(V1)
+    run, evaluation = process_run_dir(V1)
+    result = evaluation.result
     assert run.meta["version"] == 1 and run.meta["status"] == "complete"
     assert len(result.profile) == 8
 
