@@ -64,6 +64,10 @@ TRANSITIONS: dict[RunState, frozenset[RunState]] = {
     RunState.FAILED: frozenset({RunState.IDLE}),
 }
 
+# Handlers for message types defined outside acquisition.messages (e.g. positioning
+# workflows): ``EXTRA_HANDLERS[MsgType] = fn(engine, msg) -> reply``.
+EXTRA_HANDLERS: dict[type, Callable[[RunEngine, Any], Any]] = {}
+
 EXIT_STATUS = {RunState.STOPPING: "success", RunState.ABORTING: "abort", RunState.FAILED: "fail"}
 
 
@@ -126,45 +130,57 @@ class RunEngine:
             sub(name, doc)
 
     # -- execution ---------------------------------------------------------------------------
+    def _open_run(self, msg: OpenRun) -> float:
+        self._uid = uuid.uuid4().hex
+        now = time.time()
+        self._emit("start", {"uid": self._uid, "time": now, "kind": msg.kind, **msg.metadata})
+        self._started = True
+        return now
+
+    def _ask(self, msg: Instruct | Prompt) -> str:
+        answer = self.operator.instruct(msg) if isinstance(msg, Instruct) else self.operator.prompt(msg)
+        if answer == "abort":
+            raise _AbortRun("operator aborted")
+        return answer
+
+    def _read_sensor(self, msg: ReadSensor) -> Any:
+        sensor = self.rig.sensor
+        if sensor is None:
+            raise UserError("this workflow needs a displacement sensor but the rig has none")
+        try:
+            return sensor.read_averaged(msg.samples)
+        except DriverError as exc:
+            label = f"displacement sensor ({getattr(sensor, 'protocol', '?')} on {getattr(sensor, 'endpoint', '?')})"
+            raise with_context(exc, label, "; check the cable, baud rate and protocol setting") from exc
+
+    def _record(self, msg: Record) -> None:
+        self._num_events += 1
+        self._emit("event", {"uid": self._uid, "seq_num": self._num_events, "time": time.time(),
+                             "stream": msg.stream, "data": dict(msg.data)})
+
+    def _close_run(self, msg: CloseRun) -> None:
+        raise _CloseRun(msg.reason)
+
+    def _handlers(self) -> dict[type, Callable[[Any], Any]]:
+        return {
+            OpenRun: self._open_run,
+            Instruct: self._ask,
+            Prompt: self._ask,
+            ZeroInterferometer: lambda _m: self.rig.controller.zero(),
+            TriggerInterferometer: lambda _m: self.rig.controller.trigger_and_read(),
+            ReadSensor: self._read_sensor,
+            Record: self._record,
+            Log: self.operator.log,
+            CloseRun: self._close_run,
+        }
+
     def _execute(self, msg: Message) -> Any:
-        if isinstance(msg, OpenRun):
-            self._uid = uuid.uuid4().hex
-            now = time.time()
-            self._emit("start", {"uid": self._uid, "time": now, "kind": msg.kind, **msg.metadata})
-            self._started = True
-            return now
-        if isinstance(msg, Instruct):
-            answer = self.operator.instruct(msg)
-            if answer == "abort":
-                raise _AbortRun("operator aborted")
-            return answer
-        if isinstance(msg, Prompt):
-            answer = self.operator.prompt(msg)
-            if answer == "abort":
-                raise _AbortRun("operator aborted")
-            return answer
-        if isinstance(msg, ZeroInterferometer):
-            return self.rig.controller.zero()
-        if isinstance(msg, TriggerInterferometer):
-            return self.rig.controller.trigger_and_read()
-        if isinstance(msg, ReadSensor):
-            try:
-                return self.rig.sensor.read_averaged(msg.samples)
-            except DriverError as exc:
-                sensor = self.rig.sensor
-                label = (f"displacement sensor ({getattr(sensor, 'protocol', '?')} "
-                         f"on {getattr(sensor, 'endpoint', '?')})")
-                raise with_context(exc, label, "; check the cable, baud rate and protocol setting") from exc
-        if isinstance(msg, Record):
-            self._emit("event", {"uid": self._uid, "seq_num": self._num_events + 1, "time": time.time(),
-                                 "stream": msg.stream, "data": dict(msg.data)})
-            self._num_events += 1
-            return None
-        if isinstance(msg, Log):
-            self.operator.log(msg)
-            return None
-        if isinstance(msg, CloseRun):
-            raise _CloseRun(msg.reason)
+        handler = self._handlers().get(type(msg))
+        if handler is not None:
+            return handler(msg)
+        extra = EXTRA_HANDLERS.get(type(msg))
+        if extra is not None:
+            return extra(self, msg)
         raise TypeError(f"unknown plan message {msg!r}")
 
     def run(self, plan: Plan) -> RunOutcome:

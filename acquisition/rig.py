@@ -18,22 +18,25 @@ SENSOR_DRIVERS: dict[str, type[DisplacementSensor]] = {"keyence-lkg": KeyenceLKG
 
 @dataclass
 class Rig:
-    """An open displacement sensor and interferometer controller."""
+    """An open interferometer controller and, for straightness runs, a displacement sensor."""
 
-    sensor: DisplacementSensor
+    sensor: DisplacementSensor | None
     controller: InterferometerController
 
     def instruments(self) -> dict[str, dict[str, Any]]:
         """run.json ``instruments``: protocol, endpoint, identity of each device."""
-        return {
-            "sensor": {"protocol": self.sensor.protocol, "endpoint": self.sensor.endpoint,
-                       **self.sensor.identify()},
-            "interferometer": {"protocol": f"modbus ({self.controller.word_order})",
-                               "endpoint": self.controller.endpoint, **self.controller.identify()},
-        }
+        out: dict[str, dict[str, Any]] = {}
+        if self.sensor is not None:
+            out["sensor"] = {"protocol": self.sensor.protocol, "endpoint": self.sensor.endpoint,
+                             **self.sensor.identify()}
+        out["interferometer"] = {"protocol": f"modbus ({self.controller.word_order})",
+                                 "endpoint": self.controller.endpoint, **self.controller.identify()}
+        return out
 
     def close(self) -> None:
         for dev in (self.sensor, self.controller):
+            if dev is None:
+                continue
             with contextlib.suppress(Exception):  # closing is best effort
                 dev.close()
 
