@@ -1,0 +1,1 @@
+"""Self-contained HTML reports of saved runs (plots embedded as PNG)."""

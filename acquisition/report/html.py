@@ -1,0 +1,100 @@
+"""A tiny builder for a printable, self-contained HTML page.
+
+Plots are embedded as base64 PNG data URIs, so the file can be mailed,
+archived and printed without its directory.  All text is escaped.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+CSS = """
+body { font-family: "DejaVu Sans", Arial, sans-serif; margin: 2em auto; max-width: 60em; color: #111; }
+h1 { font-size: 1.5em; border-bottom: 2px solid #333; padding-bottom: .2em; }
+h2 { font-size: 1.2em; margin-top: 1.6em; border-bottom: 1px solid #999; }
+table { border-collapse: collapse; margin: .6em 0; font-size: .9em; }
+th, td { border: 1px solid #bbb; padding: .2em .6em; text-align: right; }
+th { background: #eee; }
+td.text, th.text { text-align: left; }
+figure { margin: 1em 0; page-break-inside: avoid; }
+figcaption { font-size: .85em; color: #444; }
+img { max-width: 100%; }
+.note { font-size: .85em; color: #444; }
+@media print { body { margin: 0; max-width: none; } h2 { page-break-after: avoid; } }
+"""
+
+
+def esc(text: Any) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def fmt(value: Any, digits: int = 3) -> str:
+    """Numbers with ``digits`` decimals; None/NaN as an em dash; other values as text."""
+    if value is None:
+        return "—"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return "—" if not math.isfinite(value) else f"{value:.{digits}f}"
+    return str(value)
+
+
+def figure_png(fig: Any, dpi: int = 110) -> bytes:
+    """PNG bytes of a matplotlib figure (the figure is closed)."""
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    plt.close(fig)
+    return buf.getvalue()
+
+
+class HtmlPage:
+    """Accumulates sections; :meth:`render` returns the whole document."""
+
+    def __init__(self, title: str) -> None:
+        self.title = title
+        self._parts: list[str] = []
+
+    def heading(self, text: str, level: int = 2) -> None:
+        self._parts.append(f"<h{level}>{esc(text)}</h{level}>")
+
+    def paragraph(self, text: str, cls: str = "") -> None:
+        attr = f' class="{esc(cls)}"' if cls else ""
+        self._parts.append(f"<p{attr}>{esc(text)}</p>")
+
+    def table(self, header: Sequence[str], rows: Iterable[Sequence[Any]], *, digits: int = 3,
+              text_columns: Sequence[int] = (0,)) -> None:
+        def cell(tag: str, i: int, v: Any) -> str:
+            cls = ' class="text"' if i in text_columns else ""
+            return f"<{tag}{cls}>{esc(fmt(v, digits))}</{tag}>"
+
+        out = ["<table>", "<tr>" + "".join(cell("th", i, h) for i, h in enumerate(header)) + "</tr>"]
+        out += ["<tr>" + "".join(cell("td", i, v) for i, v in enumerate(row)) + "</tr>" for row in rows]
+        out.append("</table>")
+        self._parts.append("\n".join(out))
+
+    def key_values(self, items: Iterable[tuple[str, Any]], *, digits: int = 3) -> None:
+        self.table(("item", "value"), items, digits=digits, text_columns=(0, 1))
+
+    def image(self, png: bytes, caption: str) -> None:
+        data = base64.b64encode(png).decode("ascii")
+        self._parts.append(
+            f'<figure><img alt="{esc(caption)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{esc(caption)}</figcaption></figure>"
+        )
+
+    def render(self) -> str:
+        body = "\n".join(self._parts)
+        return (
+            "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<title>{esc(self.title)}</title><style>{CSS}</style></head>\n"
+            f"<body><h1>{esc(self.title)}</h1>\n{body}\n</body></html>\n"
+        )
