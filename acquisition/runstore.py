@@ -25,20 +25,26 @@ from typing import Any, TextIO
 
 import pandas as pd
 
-from processing.columns import POSITIONING_LINEAR, POSITIONING_ROTARY, STRAIGHTNESS_POINTS
+from processing.columns import (
+    OPTIONAL_DEFAULTS,
+    POSITIONING_LINEAR,
+    POSITIONING_ROTARY,
+    STRAIGHTNESS_POINTS,
+    STRAIGHTNESS_POINTS_V2,
+)
 
 from .errors import RunFormatError
 
 FORMAT = "guideway-run"
-VERSION = 1
-SUPPORTED_VERSIONS = (1,)
+VERSION = 2
+SUPPORTED_VERSIONS = (1, 2)
 KINDS = ("straightness", "positioning")
 
 
-def point_columns(kind: str, axis_type: str | None = None) -> tuple[str, ...]:
-    """The points.csv columns of a run kind (and axis type for positioning runs)."""
+def point_columns(kind: str, axis_type: str | None = None, version: int = VERSION) -> tuple[str, ...]:
+    """The points.csv columns of a run kind (and axis type for positioning runs) in a format version."""
     if kind == "straightness":
-        return STRAIGHTNESS_POINTS
+        return STRAIGHTNESS_POINTS if version == 1 else STRAIGHTNESS_POINTS_V2
     if kind == "positioning":
         if axis_type == "rotary":
             return POSITIONING_ROTARY
@@ -209,7 +215,7 @@ def load_run(run_dir: Path | str) -> LoadedRun:
     kind = meta.get("kind")
     if kind not in KINDS:
         raise RunFormatError(f"{meta_path}: unknown run kind {kind!r}")
-    points, warnings = _read_points(run_dir / "points.csv", point_columns(kind, meta.get("axis_type")))
+    points, warnings = _read_points(run_dir / "points.csv", point_columns(kind, meta.get("axis_type"), version))
     return LoadedRun(run_dir, meta, points, tuple(warnings))
 
 
@@ -230,6 +236,9 @@ def _read_points(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame, li
     if not rows:
         raise RunFormatError(f"{path}: empty file (no header)")
     header = [h.strip() for h in rows[0]]
+    # A column added by a later format version may be absent: it takes its documented default.
+    defaults = {c: OPTIONAL_DEFAULTS[c] for c in columns if c not in header and c in OPTIONAL_DEFAULTS}
+    columns = tuple(c for c in columns if c not in defaults)
     missing = [c for c in columns if c not in header]
     if missing:
         raise RunFormatError(f"{path}: missing column(s) {', '.join(missing)}")
@@ -244,7 +253,9 @@ def _read_points(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame, li
             except ValueError:
                 raise RunFormatError(f"{path}:{lineno}: column {c} is not a number: {row[i]!r}") from None
     df = pd.DataFrame(data, columns=list(columns))
-    for col in ("station", "run", "direction", "target_index"):
+    for c, v in defaults.items():
+        df[c] = v
+    for col in ("station", "run", "direction", "target_index", "pass"):
         if col in df:
             if not all(float(v).is_integer() for v in df[col]):
                 raise RunFormatError(f"{path}: column {col} must hold integers")

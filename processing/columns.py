@@ -22,6 +22,11 @@ STRAIGHTNESS_POINTS: tuple[str, ...] = (
     "material_temp_c",
 )
 
+# Columns added by run format version 2, with the value a version-1 file implies.
+# ``pass``: 0 forward pass, 1 return pass of a straightness run.
+STRAIGHTNESS_POINTS_V2: tuple[str, ...] = (*STRAIGHTNESS_POINTS, "pass")
+OPTIONAL_DEFAULTS: dict[str, float] = {"pass": 0}
+
 PROFILE: tuple[str, ...] = (
     "station",    # station index
     "x_mm",       # position of the surface sample point relative to the first station

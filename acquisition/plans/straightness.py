@@ -33,9 +33,10 @@ class CaptureRejected(UserError):
 
 
 def point_record(
-    k: int, x_mm: float, t0: float, ifm: InterferometerReading, sensor: AveragedDisplacement
+    k: int, x_mm: float, t0: float, ifm: InterferometerReading, sensor: AveragedDisplacement,
+    pass_: int = 0,
 ) -> dict[str, Any]:
-    """One row of points.csv (run format v1) from the two readings."""
+    """One row of points.csv (run format v2) from the two readings; ``pass_`` 0 forward, 1 return."""
     return {
         "station": k,
         "x_mm": x_mm,
@@ -51,6 +52,7 @@ def point_record(
         "air_pressure_hpa": ifm.air_pressure_hpa,
         "humidity_pct": ifm.humidity_pct,
         "material_temp_c": ifm.material_temp_c,
+        "pass": pass_,
     }
 
 

@@ -19,6 +19,7 @@ def test_v1_run_loads_and_processes() -> None:
     result = evaluation.result
     assert run.meta["version"] == 1 and run.meta["status"] == "complete"
     assert len(result.profile) == 8
+    assert run.points["pass"].tolist() == [0] * 8  # v1 has no return pass: all forward
 
     # Independent evaluation straight from the CSV text with the documented formula.
     with open(V1 / "points.csv", newline="") as f:

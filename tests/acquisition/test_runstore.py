@@ -10,13 +10,14 @@ import pytest
 
 from acquisition.errors import RunFormatError
 from acquisition.runstore import RunStore, load_run
-from processing.columns import STRAIGHTNESS_POINTS
+from processing.columns import STRAIGHTNESS_POINTS_V2
 
 
 def point(k: int) -> dict:
-    row = dict.fromkeys(STRAIGHTNESS_POINTS, 0.5 * k)
+    row = dict.fromkeys(STRAIGHTNESS_POINTS_V2, 0.5 * k)
     row["station"] = k
     row["x_mm"] = 100.0 * k
+    row["pass"] = 0
     row["sensor_mm"] = 0.1 + k / 3  # needs more than 15 digits to round-trip
     return row
 
@@ -30,7 +31,7 @@ def test_each_point_is_on_disk_when_the_subscriber_returns(tmp_path: Path) -> No
     store = RunStore(run, {"machine": "M", "setup": {"stations": 3}})
     start(store)
     meta = json.loads((run / "run.json").read_text())
-    assert meta["status"] == "in-progress" and meta["format"] == "guideway-run" and meta["version"] == 1
+    assert meta["status"] == "in-progress" and meta["format"] == "guideway-run" and meta["version"] == 2
     assert meta["created"].endswith("Z") and meta["machine"] == "M"
     for k in range(3):
         store("event", {"data": point(k)})
@@ -40,7 +41,7 @@ def test_each_point_is_on_disk_when_the_subscriber_returns(tmp_path: Path) -> No
     meta = json.loads((run / "run.json").read_text())
     assert meta["status"] == "complete" and meta["points"] == 3
     loaded = load_run(run)
-    assert list(loaded.points.columns) == list(STRAIGHTNESS_POINTS)
+    assert list(loaded.points.columns) == list(STRAIGHTNESS_POINTS_V2)
     assert loaded.points["sensor_mm"].tolist() == [0.1 + k / 3 for k in range(3)]  # exact round trip
     assert not list(run.glob(".*tmp"))  # no temp files left
 
