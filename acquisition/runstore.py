@@ -29,7 +29,6 @@ from processing.columns import (
     OPTIONAL_DEFAULTS,
     POSITIONING_LINEAR,
     POSITIONING_ROTARY,
-    STRAIGHTNESS_POINTS,
     STRAIGHTNESS_POINTS_V2,
 )
 
@@ -41,10 +40,13 @@ SUPPORTED_VERSIONS = (1, 2)
 KINDS = ("straightness", "positioning")
 
 
-def point_columns(kind: str, axis_type: str | None = None, version: int = VERSION) -> tuple[str, ...]:
-    """The points.csv columns of a run kind (and axis type for positioning runs) in a format version."""
+def point_columns(kind: str, axis_type: str | None = None) -> tuple[str, ...]:
+    """The points.csv columns of a run kind (and axis type for positioning runs), current version.
+
+    Reading an older version, a column it lacks takes its default (``OPTIONAL_DEFAULTS``).
+    """
     if kind == "straightness":
-        return STRAIGHTNESS_POINTS if version == 1 else STRAIGHTNESS_POINTS_V2
+        return STRAIGHTNESS_POINTS_V2
     if kind == "positioning":
         if axis_type == "rotary":
             return POSITIONING_ROTARY
@@ -215,7 +217,7 @@ def load_run(run_dir: Path | str) -> LoadedRun:
     kind = meta.get("kind")
     if kind not in KINDS:
         raise RunFormatError(f"{meta_path}: unknown run kind {kind!r}")
-    points, warnings = _read_points(run_dir / "points.csv", point_columns(kind, meta.get("axis_type"), version))
+    points, warnings = _read_points(run_dir / "points.csv", point_columns(kind, meta.get("axis_type")))
     return LoadedRun(run_dir, meta, points, tuple(warnings))
 
 
