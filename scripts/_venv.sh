@@ -22,8 +22,13 @@ if [ ! -x "$VENV/bin/python" ]; then
 fi
 STAMP="$VENV/.installed-$(sha256sum "$ROOT/pyproject.toml" | cut -c1-16)"
 if [ ! -f "$STAMP" ]; then
-    "$VENV/bin/python" -m pip install --quiet --upgrade pip >/dev/null 2>&1 || true
-    "$VENV/bin/python" -m pip install --quiet -e "$ROOT[test]"
+    echo "installing guideway and its dependencies into $VENV (log: $VENV/install.log) ..." >&2
+    "$VENV/bin/python" -m pip install --quiet --upgrade pip >"$VENV/install.log" 2>&1 || true
+    if ! "$VENV/bin/python" -m pip install --quiet -e "$ROOT[test]" >>"$VENV/install.log" 2>&1; then
+        tail -n 20 "$VENV/install.log" >&2
+        echo "error: installing the tool failed (full log: $VENV/install.log); check the network access to the package index" >&2
+        exit 2
+    fi
     rm -f "$VENV"/.installed-*
     touch "$STAMP"
 fi
