@@ -26,6 +26,7 @@ from .runstore import LoadedRun
 
 ARCSEC_PER_DEG = 3600.0
 UM_PER_MM = 1000.0
+MAX_TARGET_ROWS = 40  # per-target rows printed in the terminal summary
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,14 @@ class PositioningEvaluation:
         pt = r.per_target
         print(f"ISO 230-2 positioning ({r.edition}, k = {r.k:g}), {r.axis_type} axis, {len(pt)} targets, "
               f"runs up/down {r.runs_up}/{r.runs_down}, deviations in {r.unit}", file=stream)
+        rows = pt if len(pt) <= MAX_TARGET_ROWS else pt.iloc[:MAX_TARGET_ROWS]
+        print(f"  {'i':>4} {'target ' + r.target_unit:>12} {'mean up':>9} {'mean down':>9} {'B_i':>9} "
+              f"{'s up':>8} {'s down':>8} {'R_i':>8}", file=stream)
+        for t in rows.itertuples(index=False):
+            print(f"  {t.target_index:>4} {t.target:>12.4f} {_fmt(t.mean_up):>9} {_fmt(t.mean_down):>9} "
+                  f"{_fmt(t.reversal):>9} {_fmt(t.s_up):>8} {_fmt(t.s_down):>8} {_fmt(t.R_i):>8}", file=stream)
+        if len(pt) > MAX_TARGET_ROWS:
+            print(f"  ... {len(pt) - MAX_TARGET_ROWS} more targets in results/positioning.csv", file=stream)
         env = self.environment
         print(f"environment: {env.reason}" + (f" ({env.equation_name})" if env.equation_name else ""), file=stream)
         for q in AXIS_QUANTITIES:

@@ -202,10 +202,10 @@ def iso230_2_from_arrays(
         raise ValueError(f"coverage factor k must be positive, got {k}")
     targets = np.asarray(targets, dtype=float)
     m = targets.shape[0]
-    up = np.asarray(up, dtype=float).reshape(m, -1)
-    down = np.asarray(down, dtype=float).reshape(m, -1)
     if m == 0:
         raise ValueError("no target positions")
+    up = np.asarray(up, dtype=float).reshape(m, -1)
+    down = np.asarray(down, dtype=float).reshape(m, -1)
 
     n_up, mean_up, s_up = _mean_std(up)
     n_dn, mean_dn, s_dn = _mean_std(down)
@@ -249,8 +249,7 @@ def iso230_2_from_arrays(
         axis["A"] = math.nan
 
     notes: list[str] = []
-    runs_up = int(n_up.max()) if m else 0
-    runs_dn = int(n_dn.max()) if m else 0
+    runs_up, runs_dn = int(n_up.max()), int(n_dn.max())
     if directions != "bidirectional":
         notes.append(f"unidirectional test ({'↑' if has_up else '↓'} only): reversal (B, B_mean), E, M and A "
                      "are bidirectional quantities and not evaluated")

@@ -134,3 +134,17 @@ def test_refuses_non_empty_out(tmp_path: Path) -> None:
     (tmp_path / "run" / "keep").write_text("x")
     with pytest.raises(UserError, match="not empty"):
         import_positioning(write(tmp_path, GOOD), tmp_path / "run", PositioningImport(compensated=True))
+
+
+def test_summary_prints_the_iso_table(tmp_path: Path) -> None:
+    import io
+
+    out, _ = import_positioning(write(tmp_path, GOOD), tmp_path / "run", PositioningImport(compensated=True))
+    _, ev = process_run_dir(out)
+    buf = io.StringIO()
+    ev.print_summary(buf)
+    text = buf.getvalue()
+    assert "ISO 230-2:2014, k = 2" in text
+    row = next(ln.split() for ln in text.splitlines() if ln.split()[:2] == ["2", "250.0000"])
+    assert row[2:5] == ["2.000", "2.000", "0.000"]  # mean up, mean down, B_i at 250 mm
+    assert any(ln.split()[:3] == ["B", "3.000", "um"] for ln in text.splitlines())
