@@ -54,8 +54,9 @@ def test_edlen_standard_point() -> None:
 
 @pytest.mark.parametrize(("t", "n"), [v for v in TEMPERATURE_C if 0 < v[0] < 45])
 def test_edlen_close_to_ciddor_in_the_laboratory_range(t: float, n: str) -> None:
-    # The two equations are independent fits; in laboratory air they agree within a few 1e-9.
-    assert abs(float(edlen_index(t, 101325, 50, wavelength_nm=633.0)) - float(n)) < 5e-9
+    # Independent fits, each with a stated uncertainty of a few 1e-8 (Birch & Downs: 3e-8 at 3 sigma):
+    # the modified Edlén value must fall within that of the NIST Ciddor value in laboratory air.
+    assert abs(float(edlen_index(t, 101325, 50, wavelength_nm=633.0)) - float(n)) < 3e-8
 
 
 def test_saturation_vapour_pressure_at_20c() -> None:
