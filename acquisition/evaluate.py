@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any, Protocol, TextIO
 
 from .errors import RunFormatError
+from .evaluate_positioning import evaluate_positioning_run
 from .evaluate_straightness import evaluate_straightness_run
 from .runstore import LoadedRun, load_run
 
@@ -26,6 +27,7 @@ class Evaluation(Protocol):
 
 EVALUATORS: dict[str, Callable[..., Evaluation]] = {
     "straightness": evaluate_straightness_run,
+    "positioning": evaluate_positioning_run,
 }
 
 

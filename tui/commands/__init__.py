@@ -13,6 +13,8 @@ from importlib import import_module
 COMMAND_MODULES = (
     "demo",
     "process",
+    "import_data",
+    "air_index",
 )
 
 

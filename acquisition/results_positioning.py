@@ -1,0 +1,74 @@
+"""Write positioning results next to a run: results/positioning.csv, positioning.png, summary.json."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .runstore import write_json_atomic  # noqa: E402
+
+if TYPE_CHECKING:
+    from .evaluate_positioning import PositioningEvaluation
+
+
+def write_positioning_results(results_dir: Path, evaluation: PositioningEvaluation) -> Path:
+    """Write the per-target table (positioning.csv, target in mm or deg, values in µm or
+    arcsec as the column names say), summary.json and positioning.png; return the directory."""
+    out = Path(results_dir)
+    out.mkdir(exist_ok=True)
+    r = evaluation.result
+    table = r.per_target.rename(columns={
+        "target": f"target_{r.target_unit}",
+        **{c: f"{c}_{r.unit}" for c in ("mean_up", "mean_down", "mean_bi", "reversal", "s_up", "s_down",
+                                        "R_i_up", "R_i_down", "R_i")},
+    })
+    tmp = out / ".positioning.csv.tmp"
+    table.to_csv(tmp, index=False, float_format="%.6f")
+    tmp.replace(out / "positioning.csv")
+    write_json_atomic(out / "summary.json", evaluation.to_dict())
+    plot_positioning(evaluation, out / "positioning.png")
+    return out
+
+
+def plot_positioning(evaluation: PositioningEvaluation, path: Path) -> None:
+    """Every run, the mean per direction with its ±k·s band, and the reversal B_i per target."""
+    r = evaluation.result
+    pt = r.per_target
+    dev = evaluation.deviations
+    fig, (ax, axb) = plt.subplots(2, 1, figsize=(9, 6.5), dpi=110, sharex=True,
+                                  gridspec_kw={"height_ratios": [3, 1]})
+    colours = {1: "tab:blue", -1: "tab:red"}
+    for (d, _run), g in dev.sort_values("target").groupby(["direction", "run"]):
+        ax.plot(g["target"], g["deviation"], "-", color=colours[int(d)], lw=0.6, alpha=0.35)
+    x = pt["target"].to_numpy()
+    for d, col, s_col, label in ((1, "mean_up", "s_up", "up"), (-1, "mean_down", "s_down", "down")):
+        mean = pt[col].to_numpy()
+        if not np.isfinite(mean).any():
+            continue
+        ks = r.k * pt[s_col].to_numpy()
+        ax.plot(x, mean, "o-", color=colours[d], ms=3.5, lw=1.4, label=f"mean {label}")
+        ax.fill_between(x, mean - ks, mean + ks, color=colours[d], alpha=0.15,
+                        label=f"mean {label} ± {r.k:g} s")
+    a = r.axis
+    vals = ", ".join(f"{q} = {a[q]:.3f}" for q in ("A", "E", "R", "B") if np.isfinite(a[q]))
+    ax.set_title(f"ISO 230-2 positioning ({r.directions}): {vals} {r.unit}", fontsize=10)
+    ax.set_ylabel(f"deviation actual - target ({r.unit})")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    rev = pt["reversal"].to_numpy()
+    width = 0.6 * (np.min(np.diff(x)) if len(x) > 1 else 1.0)
+    axb.bar(x, np.nan_to_num(rev), width=width, color="tab:gray")
+    axb.set_ylabel(f"reversal B_i ({r.unit})")
+    axb.set_xlabel(f"target ({r.target_unit})")
+    axb.grid(True, alpha=0.3)
+    fig.tight_layout()
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp)
+    plt.close(fig)
+    tmp.replace(path)
