@@ -191,7 +191,7 @@ class ModbusLink:
     def _registers(self, what: str, rr: Any, count: int) -> list[int]:
         regs = list(getattr(rr, "registers", None) or [])
         if len(regs) != count:
-            raise ProtocolError(f"{self.name} {self.url}: {what}: {len(regs)} registers in the reply, asked for {count}")
+            raise ProtocolError(f"{self.name} {self.url}: {what}: {len(regs)} registers in the reply, not {count}")
         return regs
 
     def read_holding(self, address: int, count: int) -> list[int]:
