@@ -4,6 +4,7 @@ and the URL / serial-settings / CRC pieces of drivers/modbus_link.py."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import struct
 import time
@@ -55,10 +56,8 @@ def test_missing_serial_port_is_connection_lost() -> None:
 
 
 def _read_into(fd: int, buf: bytearray) -> int:
-    try:
+    with contextlib.suppress(BlockingIOError):
         buf.extend(os.read(fd, 256))
-    except BlockingIOError:
-        pass
     return len(buf)
 
 
