@@ -12,7 +12,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from ..errors import DeviceError, ProtocolError, TransportTimeout
+from ..errors import DeviceError, DriverError, ProtocolError, TransportTimeout
 from ..modbus_link import MODBUS_EXCEPTION_TEXT, ModbusLink, SerialSettings
 from ..readings import ControllerStatus, InterferometerReading
 from .codec import check_word_order, decode_block, decode_status
@@ -178,7 +178,7 @@ class InterferometerController:
             try:
                 rr = self._link.call("read device identification", client.read_device_information,
                                      read_code=read_code)
-            except (DeviceError, ProtocolError, TransportTimeout):
+            except DriverError:  # identification is optional: never fail a run for it
                 continue
             info = getattr(rr, "information", {}) or {}
             out = {names[k]: (v.decode("ascii", "replace") if isinstance(v, bytes) else str(v))
