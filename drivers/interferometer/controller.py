@@ -1,9 +1,12 @@
-"""Interferometer controller driver (pymodbus sync client, TCP or RTU).
+"""Interferometer controller driver (pymodbus sync client, Modbus TCP or RTU).
 
 Trigger handshake (docs/modbus-map.md): read the sequence counter, write
 command 1, poll the status block until the counter changes (deadline), then
 read the data block 100-127 in one request and check that the counter did not
-move meanwhile.  Bounded retries on a missing completion.
+move meanwhile.  Bounded retries on a missing completion.  Transport, URL
+parsing (RTU 8E1 by default) and the mapping of every pymodbus failure to a
+typed error live in :mod:`drivers.modbus_link`; after ``ConnectionLost`` the
+next call reconnects.
 """
 
 from __future__ import annotations
