@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from mocks.faults import FaultPlan, FaultSpecError
-from mocks.interferometer import InterferometerEmulator, ModbusServerThread
+from mocks.interferometer import InterferometerEmulator, ModbusServerThread, start_controller
 from mocks.keyence_lkg import KeyenceLKGEmulator
 from mocks.serial_endpoints import PtyEndpoint
 from mocks.world import Noise, World
@@ -58,12 +58,16 @@ def start_simulated_rig(
     measure_time_s: float = 0.0,
     baudrate: int = 115200,
     faults: str | None = None,
+    controller: str = "tcp",
 ) -> SimulatedRig:
     """Start the emulators on real transports and return their endpoints.
 
     ``faults`` is a fault-plan spec (see :mod:`mocks.faults`), e.g.
-    ``"sensor:garbage@12"``.
+    ``"sensor:garbage@12"``.  ``controller`` is ``"tcp"`` (Modbus TCP on
+    127.0.0.1) or ``"rtu"`` (Modbus RTU on a pty pair at ``baudrate``).
     """
+    if controller not in ("tcp", "rtu"):
+        raise UserError(f"controller transport {controller!r} must be tcp or rtu")
     try:
         plan = FaultPlan.parse(faults)
     except FaultSpecError as exc:
@@ -78,9 +82,8 @@ def start_simulated_rig(
     pty = PtyEndpoint(KeyenceLKGEmulator(sensor_value, decimals=sensor_decimals, faults=plan),
                       baudrate=baudrate)
     try:
-        modbus = ModbusServerThread(
-            InterferometerEmulator(world, measure_time_s=measure_time_s, faults=plan).device()
-        )
+        modbus = start_controller(InterferometerEmulator(world, measure_time_s=measure_time_s, faults=plan),
+                                  transport=controller, baudrate=baudrate)
     except BaseException:
         pty.stop()
         raise

@@ -105,6 +105,7 @@ class InterferometerReading:
         values = (
             self.position_mm, self.stry_um, self.strz_um,
             self.pitch_urad, self.yaw_urad, self.roll_urad,
+            self.air_temp_c, self.air_pressure_hpa, self.humidity_pct, self.material_temp_c,
         )
         return (
             self.status.data_valid
@@ -112,3 +113,22 @@ class InterferometerReading:
             and not self.status.error
             and all(math.isfinite(v) for v in values)
         )
+
+
+@dataclass(frozen=True, slots=True)
+class TempHumidityReading:
+    """Air temperature and relative humidity from a transmitter such as the XY-MD02.
+
+    ``ok`` is false when a value is outside the sensor's measuring range
+    (a wrong register map or a broken probe, not weather).
+    """
+
+    temp_c: float
+    humidity_pct: float
+    timestamp_s: float
+    temp_range_c: tuple[float, float] = (-40.0, 125.0)
+
+    @property
+    def ok(self) -> bool:
+        lo, hi = self.temp_range_c
+        return lo <= self.temp_c <= hi and 0.0 <= self.humidity_pct <= 100.0

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 KINDS = {
     "sensor": {"garbage", "drop", "delay", "error", "corrupt"},
-    "controller": {"freeze-seq", "beam-loss", "exception", "delay"},
+    "controller": {"freeze-seq", "beam-loss", "exception", "delay", "drop", "corrupt", "close"},
 }
 _SPEC = re.compile(r"^(?P<dev>[a-z]+):(?P<kind>[a-z-]+)@(?P<at>\d+)(?:x(?P<count>\d+))?(?:=(?P<arg>[^,]+))?$")
 

@@ -7,25 +7,39 @@ sets *busy*; once ``measure_time_s`` has passed (checked at the next access)
 the capture is taken from the :class:`~mocks.world.World`, the data registers
 are filled, the sequence counter increments and *busy* clears.  The command
 register reads 0 again as soon as a command is accepted.
+
+Extension points (for more registers, e.g. a positioning axis):
+``extra_simdata`` adds SimData blocks to the device, ``on_command`` sees every
+command code before the built-in ones, ``on_sync`` fills extra registers on
+every access.  :func:`start_controller` serves the emulator over Modbus TCP or
+RTU (pty) and returns the running server (``.url``, ``.stop()``).
+
+Controller faults (:mod:`mocks.faults`): ``freeze-seq``, ``beam-loss``,
+``exception``, ``delay`` act on the register level here; ``drop``,
+``corrupt`` and ``close`` act on the reply frame (:class:`~mocks.modbus_server.WireFaults`).
 """
 
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import struct
-import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
-from pymodbus import FramerType
 from pymodbus.constants import ExcCodes
 from pymodbus.pdu.device import ModbusDeviceIdentification
-from pymodbus.server import ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from .faults import FaultPlan
+from .modbus_server import WIRE_KINDS, ModbusServerThread, WireFaults
 from .world import World
+
+__all__ = ["InterferometerEmulator", "ModbusServerThread", "float_registers", "identity", "start_controller"]
+
+#: ``on_command(code)``: True = handled here, an ExcCodes = answer that exception, None/False = not mine.
+CommandHook = Callable[[int], "ExcCodes | bool | None"]
+#: ``on_sync(start_address, registers)``: fill extra registers in place before an access is served.
+SyncHook = Callable[[int, list[int]], None]
 
 # Register addresses (docs/modbus-map.md, version 1), holding registers, 0-based.
 REG_COMMAND, REG_STATUS, REG_SEQUENCE, REG_ERROR = 0, 1, 2, 3
@@ -61,9 +75,16 @@ class InterferometerEmulator:
         measure_time_s: float = 0.0,
         clock: Callable[[], float] = time.monotonic,
         faults: FaultPlan | None = None,
+        extra_simdata: Sequence[SimData] = (),
+        on_command: CommandHook | None = None,
+        on_sync: SyncHook | None = None,
     ) -> None:
         self.world = world
         self.faults = faults or FaultPlan()
+        self.wire_faults = WireFaults()
+        self.extra_simdata = tuple(extra_simdata)
+        self.on_command = on_command
+        self.on_sync = on_sync
         self._frozen = False
         self._beam_fault = False
         self.word_order = word_order
@@ -84,7 +105,9 @@ class InterferometerEmulator:
                 SimData(REG_STATUS, count=3, values=0, datatype=DataType.REGISTERS, readonly=True),
                 SimData(REG_POSITION, count=DATA_END - REG_POSITION, values=0,
                         datatype=DataType.REGISTERS, readonly=True),
+                *self.extra_simdata,
             ],
+            identity=identity(),
             action=self.action,
         )
 
@@ -120,6 +143,12 @@ class InterferometerEmulator:
     def _command(self, cmd: int) -> ExcCodes | None:
         if cmd == 0:
             return None
+        if self.on_command is not None:
+            handled = self.on_command(cmd)
+            if isinstance(handled, ExcCodes):
+                return handled
+            if handled:
+                return None
         if cmd in (CMD_TRIGGER, CMD_ZERO):
             if self._pending is not None:
                 return ExcCodes.DEVICE_BUSY
@@ -140,6 +169,8 @@ class InterferometerEmulator:
         regs[REG_SEQUENCE - start] = self.sequence
         regs[REG_ERROR - start] = self.error_code
         regs[REG_POSITION - start : DATA_END - start] = self._data
+        if self.on_sync is not None:
+            self.on_sync(start, regs)
 
     async def action(
         self,
@@ -158,6 +189,8 @@ class InterferometerEmulator:
             return ExcCodes(int(fault.arg or 4))
         if fault is not None and fault.kind == "delay":
             await asyncio.sleep(float(fault.arg or 1.0))
+        if fault is not None and fault.kind in WIRE_KINDS:
+            self.wire_faults.arm(fault.kind)
         self._advance()
         result = None
         if set_values is not None and address == REG_COMMAND:
@@ -179,53 +212,17 @@ def identity() -> ModbusDeviceIdentification:
     )
 
 
-class ModbusServerThread:
-    """A pymodbus TCP server on 127.0.0.1 running in its own thread and event loop."""
+def start_controller(
+    emulator: InterferometerEmulator,
+    *,
+    transport: str = "tcp",
+    device_id: int = 1,
+    baudrate: int = 115200,
+    port: int = 0,
+) -> ModbusServerThread:
+    """Serve ``emulator`` over Modbus TCP (127.0.0.1) or RTU (pty bridge) and return the running server.
 
-    def __init__(self, devices: SimDevice | list[SimDevice], *, port: int = 0,
-                 framer: FramerType = FramerType.SOCKET) -> None:
-        self._devices = devices
-        self._framer = framer
-        self._want_port = port
-        self._loop = asyncio.new_event_loop()
-        self._ready = threading.Event()
-        self._error: BaseException | None = None
-        self.server: ModbusTcpServer | None = None
-        self.port = 0
-        self._thread = threading.Thread(target=self._run, name="modbus-sim", daemon=True)
-        self._thread.start()
-        if not self._ready.wait(10):
-            raise RuntimeError("simulated Modbus server did not start")
-        if self._error is not None:
-            raise RuntimeError(f"simulated Modbus server failed: {self._error}") from self._error
-
-    @property
-    def url(self) -> str:
-        return f"modbus-tcp://127.0.0.1:{self.port}"
-
-    async def _start(self) -> None:
-        self.server = ModbusTcpServer(self._devices, address=("127.0.0.1", self._want_port),
-                                      framer=self._framer, identity=identity())
-        await self.server.serve_forever(background=True)
-        self.port = self.server.transport.sockets[0].getsockname()[1]  # type: ignore[union-attr]
-
-    def _run(self) -> None:
-        asyncio.set_event_loop(self._loop)
-        try:
-            self._loop.run_until_complete(self._start())
-        except BaseException as exc:  # reported to the starting thread
-            self._error = exc
-            self._ready.set()
-            return
-        self._ready.set()
-        self._loop.run_forever()
-        self._loop.close()
-
-    def stop(self) -> None:
-        if self.server is not None and self._loop.is_running():
-            fut = asyncio.run_coroutine_threadsafe(self.server.shutdown(), self._loop)
-            with contextlib.suppress(Exception):  # best effort at shutdown
-                fut.result(timeout=5)
-        if self._loop.is_running():
-            self._loop.call_soon_threadsafe(self._loop.stop)
-        self._thread.join(timeout=5)
+    Its ``url`` is what the driver opens (``modbus-tcp://...`` or ``modbus-rtu:/dev/pts/N?...``).
+    """
+    return ModbusServerThread(emulator.device(device_id), transport=transport, baudrate=baudrate, port=port,
+                              wire_faults=emulator.wire_faults)

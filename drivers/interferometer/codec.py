@@ -46,7 +46,14 @@ def encode_value(value: float, type_name: str, word_order: str = "ABCD") -> list
 def decode_block(
     registers: Sequence[int], start: int, names: Sequence[str], regmap: RegisterMap, word_order: str
 ) -> dict[str, float]:
-    """Decode the named values from a block of registers read from ``start``."""
+    """Decode the named values from a block of registers read from ``start``.
+
+    A register pattern that is not a finite number (NaN, infinity) is returned
+    as such; :attr:`~drivers.readings.InterferometerReading.ok` flags it.
+    """
+    bad = [r for r in registers if not (isinstance(r, int) and 0 <= r <= 0xFFFF)]
+    if bad:
+        raise ProtocolError(f"register block from {start} holds values that are not 16-bit registers: {bad[:4]}")
     out: dict[str, float] = {}
     for name in names:
         reg = regmap[name]

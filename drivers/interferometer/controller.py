@@ -1,9 +1,12 @@
-"""Interferometer controller driver (pymodbus sync client, TCP or RTU).
+"""Interferometer controller driver (pymodbus sync client, Modbus TCP or RTU).
 
 Trigger handshake (docs/modbus-map.md): read the sequence counter, write
 command 1, poll the status block until the counter changes (deadline), then
 read the data block 100-127 in one request and check that the counter did not
-move meanwhile.  Bounded retries on a missing completion.
+move meanwhile.  Bounded retries on a missing completion.  Transport, URL
+parsing (RTU 8E1 by default) and the mapping of every pymodbus failure to a
+typed error live in :mod:`drivers.modbus_link`; after ``ConnectionLost`` the
+next call reconnects.
 """
 
 from __future__ import annotations
@@ -11,58 +14,51 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from typing import Any
-from urllib.parse import parse_qs, urlsplit
 
-from pymodbus import FramerType, ModbusException
-from pymodbus.client import ModbusSerialClient, ModbusTcpClient
-from pymodbus.exceptions import ConnectionException, ModbusIOException
-
-from ..errors import ConnectionLost, DeviceError, ProtocolError, TransportTimeout
+from ..errors import DeviceError, DriverError, ProtocolError, TransportTimeout
+from ..modbus_link import MODBUS_EXCEPTION_TEXT, ModbusLink, SerialSettings
 from ..readings import ControllerStatus, InterferometerReading
 from .codec import check_word_order, decode_block, decode_status
 from .register_map import RegisterMap, load_register_map
 
-MODBUS_EXCEPTION_TEXT = {
-    1: "illegal function",
-    2: "illegal data address",
-    3: "illegal data value",
-    4: "server device failure",
-    5: "acknowledge",
-    6: "server device busy",
-    8: "memory parity error",
-    10: "gateway path unavailable",
-    11: "gateway target device failed to respond",
-}
+__all__ = ["MODBUS_EXCEPTION_TEXT", "InterferometerController", "RTU_DEFAULT"]
+
+#: RTU framing when the URL does not say otherwise: 19200 baud, 8E1 (Modbus over serial line spec, 2.5.1).
+RTU_DEFAULT = SerialSettings(baudrate=19200, parity="E", stopbits=1)
 
 CHANNELS = ("position_mm", "stry_um", "strz_um", "pitch_urad", "yaw_urad", "roll_urad")
 ENVIRONMENT = ("air_temp_c", "air_pressure_hpa", "humidity_pct", "material_temp_c")
 
 
 class InterferometerController:
-    """6-DOF interferometer controller with environment unit, over Modbus."""
+    """6-DOF interferometer controller with environment unit, over Modbus TCP or RTU."""
 
     protocol = "modbus"
 
     def __init__(
         self,
-        client: ModbusTcpClient | ModbusSerialClient,
+        link: ModbusLink,
         *,
-        device_id: int = 1,
         word_order: str = "ABCD",
         register_map: RegisterMap | None = None,
-        endpoint: str = "",
         trigger_timeout_s: float = 2.0,
         poll_interval_s: float = 0.002,
         retries: int = 2,
     ) -> None:
-        self._client = client
-        self.device_id = device_id
+        self._link = link
         self.word_order = check_word_order(word_order)
         self.map = register_map or load_register_map()
-        self.endpoint = endpoint
         self.trigger_timeout_s = trigger_timeout_s
         self.poll_interval_s = poll_interval_s
         self.retries = retries
+
+    @property
+    def endpoint(self) -> str:
+        return self._link.url
+
+    @property
+    def device_id(self) -> int:
+        return self._link.device_id
 
     # -- construction -----------------------------------------------------------------
     @classmethod
@@ -70,52 +66,27 @@ class InterferometerController:
         cls, url: str, *, timeout_s: float = 1.0, device_id: int = 1, word_order: str = "ABCD",
         **kwargs: Any,
     ) -> InterferometerController:
-        """Connect to ``modbus-tcp://host:port`` or ``modbus-rtu:PORT[?baud=..&parity=E]``."""
-        client = make_client(url, timeout_s=timeout_s)
-        try:
-            ok = client.connect()
-        except (ModbusException, OSError) as exc:
-            raise ConnectionLost(f"cannot connect to controller at {url}: {exc}") from exc
-        if not ok:
-            client.close()
-            raise ConnectionLost(f"cannot connect to controller at {url}: connection refused or port missing")
-        return cls(client, device_id=device_id, word_order=word_order, endpoint=url, **kwargs)
+        """Connect to ``modbus-tcp://host:port`` or ``modbus-rtu:PORT[?baud=19200&parity=E&stopbits=1]``.
+
+        RTU defaults to 19200 baud 8E1.  Raises ``ValueError`` for a malformed
+        URL and :class:`~drivers.errors.ConnectionLost` if the port or host
+        cannot be opened.
+        """
+        link = ModbusLink(url, timeout_s=timeout_s, device_id=device_id, rtu_default=RTU_DEFAULT,
+                          name="controller")
+        link.connect()
+        return cls(link, word_order=word_order, **kwargs)
 
     def close(self) -> None:
-        self._client.close()
+        self._link.close()
 
     # -- low level ----------------------------------------------------------------------
-    def _call(self, what: str, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
-        try:
-            rr = fn(*args, device_id=self.device_id, **kwargs)
-        except ConnectionException as exc:
-            raise ConnectionLost(f"controller {self.endpoint}: {what}: connection lost ({exc})") from exc
-        except ModbusIOException as exc:
-            raise TransportTimeout(f"controller {self.endpoint}: {what}: no response") from exc
-        except ModbusException as exc:
-            raise ProtocolError(f"controller {self.endpoint}: {what}: {exc}") from exc
-        except OSError as exc:
-            raise ConnectionLost(f"controller {self.endpoint}: {what}: {exc}") from exc
-        if rr is None:
-            raise TransportTimeout(f"controller {self.endpoint}: {what}: no response")
-        if rr.isError():
-            code = int(getattr(rr, "exception_code", 0))
-            raise DeviceError(
-                code, f"Modbus exception: {MODBUS_EXCEPTION_TEXT.get(code, 'unknown')}", command=what
-            )
-        return rr
-
     def _read(self, address: int, count: int) -> list[int]:
-        rr = self._call(f"read {count} registers at {address}", self._client.read_holding_registers,
-                        address, count=count)
-        regs = list(rr.registers)
-        if len(regs) != count:
-            raise ProtocolError(f"controller returned {len(regs)} registers, asked for {count}")
-        return regs
+        return self._link.read_holding(address, count)
 
     def _write_command(self, name: str) -> None:
         code = self.map.commands[name]
-        self._call(f"command {name}", self._client.write_register, self.map["command"].address, code)
+        self._link.write_register(self.map["command"].address, code, what=f"command {name}")
 
     # -- public API ---------------------------------------------------------------------
     def read_status(self) -> ControllerStatus:
@@ -144,6 +115,7 @@ class InterferometerController:
     def zero(self) -> ControllerStatus:
         """Set the datum at the current pose (all channels read 0 afterwards)."""
         before = self.read_status()
+        self._raise_if_error(before, "zero")
         self._write_command("zero")
         st = self._wait(lambda s: s.sequence != before.sequence and not s.busy, "zero")
         self._raise_if_error(st, "zero")
@@ -154,34 +126,46 @@ class InterferometerController:
         self._write_command("clear_error")
         return self._wait(lambda s: not s.error and not s.busy, "clear error")
 
-    def read_data(self) -> InterferometerReading:
-        """Read the latest measurement without triggering."""
+    def _read_consistent(self, st: ControllerStatus) -> InterferometerReading:
+        """Read the data block; accept it if the sequence counter did not move meanwhile."""
         start, count = self.map.span("position_mm", "material_temp_c")
         for _ in range(3):
-            st = self.read_status()
             regs = self._read(start, count)
             after = self.read_status()
             if after.sequence == st.sequence:
-                break
-        else:
-            raise ProtocolError(f"controller {self.endpoint}: data kept changing during the read")
-        values = decode_block(regs, start, CHANNELS + ENVIRONMENT, self.map, self.word_order)
-        return InterferometerReading(**values, sequence=after.sequence, status=after, timestamp_s=time.time())
+                values = decode_block(regs, start, CHANNELS + ENVIRONMENT, self.map, self.word_order)
+                return InterferometerReading(**values, sequence=after.sequence, status=after,
+                                             timestamp_s=time.time())
+            st = after
+        raise ProtocolError(f"controller {self.endpoint}: data kept changing during the read")
+
+    def read_data(self) -> InterferometerReading:
+        """Read the latest measurement without triggering."""
+        return self._read_consistent(self.read_status())
 
     def trigger_and_read(self) -> InterferometerReading:
-        """Trigger one measurement, wait for it and return it (bounded retries)."""
+        """Trigger one measurement, wait for it and return it.
+
+        A trigger whose completion does not show within ``trigger_timeout_s``
+        is retried ``retries`` times (a still-busy controller is waited for,
+        not re-triggered); then :class:`TransportTimeout`.  A measurement that
+        ends with the error flag raises :class:`DeviceError` with the
+        controller's error code and text.
+        """
         last_exc: TransportTimeout | None = None
         for _ in range(self.retries + 1):
-            before = self.read_status()
-            self._raise_if_error(before, "trigger")
-            self._write_command("trigger")
             try:
+                before = self.read_status()
+                if before.busy:  # an earlier trigger is still running: let it finish first
+                    before = self._wait(lambda s: not s.busy, "previous measurement")
+                self._raise_if_error(before, "trigger")
+                self._write_command("trigger")
                 st = self._wait(lambda s, b=before: s.sequence != b.sequence and not s.busy, "trigger")
             except TransportTimeout as exc:
                 last_exc = exc
                 continue
             self._raise_if_error(st, "trigger")
-            return self.read_data()
+            return self._read_consistent(st)
         assert last_exc is not None
         raise last_exc
 
@@ -192,12 +176,12 @@ class InterferometerController:
         an empty dict when the controller does not offer the function.
         """
         names = {0: "vendor", 1: "product_code", 2: "revision", 4: "product", 5: "model"}
+        client = self._link.client
         for read_code in (2, 1):
             try:
-                rr = self._client.read_device_information(read_code=read_code, device_id=self.device_id)
-            except (ModbusException, OSError):
-                continue
-            if rr is None or rr.isError():
+                rr = self._link.call("read device identification", client.read_device_information,
+                                     read_code=read_code)
+            except DriverError:  # identification is optional: never fail a run for it
                 continue
             info = getattr(rr, "information", {}) or {}
             out = {names[k]: (v.decode("ascii", "replace") if isinstance(v, bytes) else str(v))
@@ -218,34 +202,3 @@ class InterferometerController:
                 "shape": [], "units": self.map[k].unit}
             for k in CHANNELS + ENVIRONMENT
         }
-
-
-def make_client(url: str, *, timeout_s: float = 1.0) -> ModbusTcpClient | ModbusSerialClient:
-    """Build (not connect) a pymodbus client for a controller URL.
-
-    ``modbus-tcp://host:port`` - Modbus TCP.
-    ``modbus-rtu:PORT?baud=19200&parity=E&stopbits=1`` - RTU on a serial port
-    (any pyserial URL, 8E1 by default as the Modbus specification requires).
-    """
-    if url.startswith("modbus-tcp://"):
-        parts = urlsplit(url)
-        if not parts.hostname:
-            raise ValueError(f"controller URL {url!r} has no host")
-        return ModbusTcpClient(parts.hostname, port=parts.port or 502, timeout=timeout_s, retries=0)
-    if url.startswith("modbus-rtu:"):
-        rest = url.removeprefix("modbus-rtu:")
-        port, _, query = rest.partition("?")
-        opts = {k: v[-1] for k, v in parse_qs(query).items()}
-        return ModbusSerialClient(
-            port,
-            framer=FramerType.RTU,
-            baudrate=int(opts.get("baud", 19200)),
-            parity=opts.get("parity", "E"),
-            stopbits=int(opts.get("stopbits", 1)),
-            bytesize=8,
-            timeout=timeout_s,
-            retries=0,
-        )
-    raise ValueError(
-        f"controller URL {url!r} must start with modbus-tcp:// or modbus-rtu: (e.g. modbus-tcp://192.168.0.10:502)"
-    )

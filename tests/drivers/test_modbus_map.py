@@ -74,3 +74,20 @@ access = "R"
 """
     with pytest.raises(ValueError, match="overlaps"):
         parse_register_map(bad)
+
+
+def test_xymd02_table_matches_driver_and_emulator() -> None:
+    from drivers.environment import xymd02 as drv
+    from mocks import xymd02 as sim
+
+    rows = doc_table(r"^## XY-MD02", 5)
+    assert [(int(r[0]), int(r[1]), r[2]) for r in rows] == [
+        (drv.REG_TEMPERATURE, 4, "INT16"), (drv.REG_HUMIDITY, 4, "UINT16"), (sim.HR_ADDRESS, 3, "UINT16")]
+    assert (sim.IR_TEMPERATURE, sim.IR_HUMIDITY) == (drv.REG_TEMPERATURE, drv.REG_HUMIDITY)
+
+
+def test_controller_fault_table_lists_every_controller_kind() -> None:
+    from mocks.faults import KINDS
+
+    rows = doc_table(r"^## Controller faults", 3)
+    assert {r[0].strip("`") for r in rows if r[0] != "kind"} == KINDS["controller"]
