@@ -98,17 +98,23 @@ class SplineModel(ErrorModel):
         return self.spline(x)
 
 
-def curvature(x: np.ndarray, e: np.ndarray) -> np.ndarray:
-    """κ_i = |e''| / (1 + e'²)^(3/2) with finite differences on the (non-uniform) grid (§5.1)."""
-    d1 = np.gradient(e, x)
-    d2 = np.gradient(d1, x)
+def curvature(u: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """κ_i = |e''| / (1 + e'²)^(3/2), derivatives by finite differences over the parameter ``u``
+    (standards.md §5.1)."""
+    d1 = np.gradient(e, u)
+    d2 = np.gradient(d1, u)
     return np.abs(d2) / (1.0 + d1**2) ** 1.5
 
 
-def curvature_maxima(x: np.ndarray, e: np.ndarray) -> np.ndarray:
+def curvature_maxima(e: np.ndarray) -> np.ndarray:
     """Indices of the interior local curvature maxima (κ_i > κ_{i−1} and κ_i > κ_{i+1}),
-    largest curvature first (ties: lower index first)."""
-    k = curvature(x, e)
+    largest curvature first (ties: lower index first).
+
+    The curvature is taken over the uniform parameter u_i = i (seed 003 parameterises the
+    measured points uniformly), so the knot choice does not depend on the position unit.
+    """
+    e = np.asarray(e, dtype=float)
+    k = curvature(np.arange(len(e), dtype=float), e)
     (idx,) = argrelextrema(k, np.greater)
     order = np.lexsort((idx, -k[idx]))
     return idx[order]
@@ -130,8 +136,10 @@ def fit_adaptive_spline(
     """Natural cubic spline with adaptively chosen knots (seed 003, standards.md §5.1).
 
     1. Initial knots: both end points plus the ``initial_maxima`` largest local curvature
-       maxima (all of them when ``None``).
-    2. Interpolate the knots with a natural cubic spline (S'' = 0 at both end knots).
+       maxima (all of them when ``None``; curvature over the uniform parameter, see
+       :func:`curvature_maxima`).
+    2. Interpolate the knots with a natural cubic spline of e over x (S'' = 0 at both end
+       knots).
     3. Every measured point whose |residual| exceeds ``tolerance`` becomes a knot (batch
        insertion, as in seed 003: "the error data points whose residual exceeds the allowed
        residual are added as new knots"); repeat from 2 until all |residual| ≤ ``tolerance``.
@@ -143,7 +151,7 @@ def fit_adaptive_spline(
     tol = default_threshold(e) if tolerance is None else float(tolerance)
     if tol < 0:
         raise ValueError("spline tolerance must be >= 0")
-    maxima = curvature_maxima(x, e) if len(x) >= 3 else np.array([], dtype=int)
+    maxima = curvature_maxima(e) if len(x) >= 3 else np.array([], dtype=int)
     if initial_maxima is not None:
         if initial_maxima < 0:
             raise ValueError("number of initial curvature maxima must be >= 0")
