@@ -194,7 +194,7 @@ def _write(d: AxisData, o: ExportOptions, table: ErrorTable, axis: str) -> tuple
     note = ""
     if not bidirectional:
         lost = int(round_half_away(-table.backlash_um / o.fanuc_detection_unit_um))
-        note = f"backlash 1851 = {lost} (lost motion, detection units)"
+        note = f"backlash parameter 1851 = {lost} detection units of lost motion"
         notes.append(_backlash_note(table, d) + f" (Fanuc parameter 1851 = {lost} detection units)")
     return fanuc_text(pitch, axis=axis, note=note), notes
 

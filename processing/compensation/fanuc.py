@@ -93,7 +93,8 @@ def fanuc_pitch_table(
     reference position).  ``error_down_um`` None → one table for both directions.
 
     ``first_number`` is the number of the first point (3621) when ``reference_number`` (3620)
-    is not given; ``negative_table_start`` (3626) defaults to the point after 3622.
+    is not given (with the reference at the negative end 3620 = 3621 − 1, so a first number 0
+    becomes 1); ``negative_table_start`` (3626) defaults to the point after 3622.
     ``reference_direction`` is the reference-return direction (+1 or −1).
     """
     g = np.asarray(grid_mm, dtype=float)
@@ -113,8 +114,8 @@ def fanuc_pitch_table(
     if reference_direction not in (1, -1):
         raise ValueError("reference direction must be +1 or -1")
     neg_intervals = k_ref
-    if reference_number is None:
-        reference_number = first_number + max(neg_intervals - 1, 0)
+    if reference_number is None:  # 3621 = first_number (3620 = 0, 3621 = 1 if that is impossible)
+        reference_number = max(first_number + neg_intervals - 1, 0)
     n_neg = reference_number - neg_intervals + 1  # 3621
     n_pos = reference_number + (len(g) - 1 - k_ref)  # 3622
     if n_neg < 0:
@@ -154,7 +155,7 @@ def fanuc_text(t: FanucPitchTable, *, axis: str = "X", note: str = "") -> str:
         f"(ONE COUNT = {unit:g} UM X MAGNIFICATION {t.magnification}; VALUES ARE INCREMENTAL CORRECTIONS)",
     ]
     if note:
-        lines.append(f"({note.upper()})")
+        lines.append(f"({note.upper().replace('(', '[').replace(')', ']')})")  # comments do not nest
     lines.append(f"(REFERENCE POSITION {t.reference_position_mm:g} MM = POINT {t.reference_number})")
     lines.append(f"PARAM 3605#0={1 if t.bidirectional else 0}")
     lines.append(f"PARAM 3620={t.reference_number}")

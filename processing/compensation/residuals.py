@@ -63,18 +63,26 @@ def compare_models(
     **model_options: object,
 ) -> pd.DataFrame:
     """One row per model (plus ``none`` = uncompensated): columns ``model``, ``table_points``,
-    ``max_abs``, ``range``, ``rms`` (unit of the means) and ``reduction_pct`` (of the range).
+    ``max_abs``, ``range``, ``rms`` (unit of the means), ``reduction_pct`` (of the range) and
+    ``note`` (why a model could not be fitted; its numbers are then NaN).
 
     ``positions`` is the controller's table grid (None: each model's own nodes)."""
     d = split_directions(target, mean_up, mean_down)
     before = ResidualStats.of(_finite(d.e_up, d.e_down))
-    rows = [{"model": "none", "table_points": 0, **before.__dict__, "reduction_pct": 0.0}]
+    rows = [{"model": "none", "table_points": 0, **before.__dict__, "reduction_pct": 0.0, "note": ""}]
     for name in models:
-        table = tabulate(fit_curves(target, mean_up, mean_down, model=name, mode=mode, **model_options), positions)
+        try:
+            table = tabulate(fit_curves(target, mean_up, mean_down, model=name, mode=mode, **model_options),
+                             positions)
+        except ValueError as exc:  # e.g. too few targets for the polynomial degree: report, go on
+            nan = float("nan")
+            rows.append({"model": name, "table_points": 0, "max_abs": nan, "range": nan, "rms": nan,
+                         "reduction_pct": nan, "note": str(exc)})
+            continue
         after = ResidualStats.of(_finite(*compensated_errors(d, table)))
         red = 100.0 * (1.0 - after.range / before.range) if before.range > 0 else 0.0
-        rows.append({"model": name, "table_points": len(table), **after.__dict__, "reduction_pct": red})
-    return pd.DataFrame(rows, columns=["model", "table_points", "max_abs", "range", "rms", "reduction_pct"])
+        rows.append({"model": name, "table_points": len(table), **after.__dict__, "reduction_pct": red, "note": ""})
+    return pd.DataFrame(rows, columns=["model", "table_points", "max_abs", "range", "rms", "reduction_pct", "note"])
 
 
 def format_comparison(df: pd.DataFrame, unit: str) -> str:
@@ -82,6 +90,9 @@ def format_comparison(df: pd.DataFrame, unit: str) -> str:
     lines = [f"{'model':<11} {'points':>6} {'max|r| ' + unit:>14} {'range ' + unit:>14} {'RMS ' + unit:>12} "
              f"{'reduction':>9}"]
     for row in df.itertuples(index=False):
+        if row.note:
+            lines.append(f"{row.model:<11} {'-':>6}  not fitted: {row.note}")
+            continue
         pts = "-" if row.model == "none" else str(row.table_points)
         lines.append(f"{row.model:<11} {pts:>6} {row.max_abs:>14.3f} {row.range:>14.3f} {row.rms:>12.3f} "
                      f"{row.reduction_pct:>8.1f}%")

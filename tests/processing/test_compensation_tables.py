@@ -65,6 +65,13 @@ def test_residual_statistics_by_hand() -> None:
     assert "polynomial" in format_comparison(df, "um")
 
 
+def test_a_model_that_cannot_be_fitted_is_reported_not_fatal() -> None:
+    df = compare_models(TARGET, UP, DOWN, models=["linear", "polynomial"], degree=6)
+    poly = df.set_index("model").loc["polynomial"]
+    assert np.isnan(poly.max_abs) and "at least 7" in poly.note
+    assert "not fitted: need at least 7" in format_comparison(df, "um")
+
+
 def test_residual_on_a_coarser_controller_grid() -> None:
     # linear model on a 0/300 grid: the table is the chord from 1 (up) to −1; at 100 and 200 the
     # chord is 1/3 and −1/3, so the residuals are 0, 3 − 1/3, 2 + 1/3, 0.
