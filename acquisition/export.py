@@ -151,8 +151,8 @@ def build_export(result: Any, options: ExportOptions, *, axis: str = "X") -> Exp
 
 
 def _backlash_note(table: ErrorTable, d: AxisData) -> str:
-    return (f"mean reversal B = mean(up - down) = {table.backlash_um:.3f} {d.error_unit}; "
-            f"lost motion for the backlash parameter = {-table.backlash_um:.3f} {d.error_unit}")
+    return (f"mean reversal B = mean(up - down) = {table.backlash:.3f} {d.error_unit}; "
+            f"lost motion for the backlash parameter = {-table.backlash:.3f} {d.error_unit}")
 
 
 def _write(d: AxisData, o: ExportOptions, table: ErrorTable, axis: str) -> tuple[str, list[str]]:
@@ -164,7 +164,7 @@ def _write(d: AxisData, o: ExportOptions, table: ErrorTable, axis: str) -> tuple
     if o.fmt == "csv":
         return csv_text(table, position_unit=d.position_unit, error_unit=d.error_unit), notes
     if o.fmt == "siemens":
-        values = table.error_up_um
+        values = table.error_up
         if o.reference_position is not None:
             values = values - np.interp(o.reference_position, table.position, values)
         if o.siemens_modulo:
@@ -185,7 +185,7 @@ def _write(d: AxisData, o: ExportOptions, table: ErrorTable, axis: str) -> tuple
     ref = float(table.position[0]) if o.reference_position is None else o.reference_position
     bidirectional = table.mode == "bidirectional"
     pitch = fanuc_pitch_table(
-        table.error_up_um, table.error_down_um if bidirectional else None,
+        table.error_up, table.error_down if bidirectional else None,
         grid_mm=table.position, reference_position_mm=ref, detection_unit_um=o.fanuc_detection_unit_um,
         magnification=o.fanuc_magnification, first_number=o.fanuc_first_point,
         reference_number=o.fanuc_reference_point, negative_table_start=o.fanuc_negative_table,
@@ -193,7 +193,7 @@ def _write(d: AxisData, o: ExportOptions, table: ErrorTable, axis: str) -> tuple
     )
     note = ""
     if not bidirectional:
-        lost = int(round_half_away(-table.backlash_um / o.fanuc_detection_unit_um))
+        lost = int(round_half_away(-table.backlash / o.fanuc_detection_unit_um))
         note = f"backlash parameter 1851 = {lost} detection units of lost motion"
         notes.append(_backlash_note(table, d) + f" (Fanuc parameter 1851 = {lost} detection units)")
     return fanuc_text(pitch, axis=axis, note=note), notes

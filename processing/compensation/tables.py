@@ -46,6 +46,8 @@ def split_directions(target: np.ndarray, mean_up: np.ndarray, mean_down: np.ndar
     dn = np.asarray(mean_down, dtype=float)
     if not (target.shape == up.shape == dn.shape) or target.ndim != 1:
         raise ValueError("target, mean_up and mean_down must be 1-D arrays of the same length")
+    if not np.all(np.isfinite(target)):
+        raise ValueError("every target position must be a finite number")
     order = np.argsort(target, kind="stable")
     target, up, dn = target[order], up[order], dn[order]
     if np.any(np.diff(target) <= 0):
@@ -64,26 +66,26 @@ def split_directions(target: np.ndarray, mean_up: np.ndarray, mean_down: np.ndar
 class ErrorTable:
     """Modelled error at table positions.
 
-    ``error_up_um`` / ``error_down_um`` are e = actual − commanded for + and − travel (um, or
-    arcsec for a rotary axis: the field names keep the linear unit for brevity).  In
-    ``backlash`` mode both hold the mean curve ē and ``backlash_um`` holds B̄; use
+    ``position`` is in mm (deg); ``error_up`` / ``error_down`` are e = actual − commanded for
+    + and − travel in the unit of the measured means (um, or arcsec for a rotary axis).  In
+    ``backlash`` mode both hold the mean curve ē and ``backlash`` holds B̄ (same unit); use
     :meth:`directional` for the per-direction curves a controller without a separate
     backlash parameter needs.
     """
 
     position: np.ndarray
-    error_up_um: np.ndarray
-    error_down_um: np.ndarray
+    error_up: np.ndarray
+    error_down: np.ndarray
     mode: str
     model: str
-    backlash_um: float = 0.0
+    backlash: float = 0.0
 
     def directional(self) -> tuple[np.ndarray, np.ndarray]:
         """(e↑, e↓) with the backlash folded in (identity in bidirectional mode)."""
         if self.mode == "backlash":
-            half = self.backlash_um / 2.0
-            return self.error_up_um + half, self.error_down_um - half
-        return self.error_up_um, self.error_down_um
+            half = self.backlash / 2.0
+            return self.error_up + half, self.error_down - half
+        return self.error_up, self.error_down
 
     def __len__(self) -> int:
         return len(self.position)
@@ -97,7 +99,7 @@ class FittedCurves:
     up: ErrorModel
     down: ErrorModel
     mode: str
-    backlash_um: float
+    backlash: float
 
     def nodes(self) -> np.ndarray:
         return np.union1d(self.up.nodes, self.down.nodes)
@@ -163,11 +165,11 @@ def tabulate(curves: FittedCurves, positions: np.ndarray | None = None) -> Error
         raise ValueError("table positions must be strictly increasing")
     return ErrorTable(
         position=pos,
-        error_up_um=np.asarray(curves.up(pos), dtype=float),
-        error_down_um=np.asarray(curves.down(pos), dtype=float),
+        error_up=np.asarray(curves.up(pos), dtype=float),
+        error_down=np.asarray(curves.down(pos), dtype=float),
         mode=curves.mode,
         model=curves.up.name,
-        backlash_um=curves.backlash_um,
+        backlash=curves.backlash,
     )
 
 

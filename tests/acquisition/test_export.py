@@ -59,7 +59,7 @@ def test_siemens_export_is_the_mean_curve_and_reports_the_backlash() -> None:
     mean = (UP + DOWN) / 2
     grid = np.arange(0.0, 401.0, 50.0)
     np.testing.assert_allclose(lec.values_mm * 1000, np.interp(grid, TARGET, mean), atol=1e-3)
-    assert ex.table.backlash_um == pytest.approx(np.mean(UP - DOWN))
+    assert ex.table.backlash == pytest.approx(np.mean(UP - DOWN))
     assert any("mean reversal" in n for n in ex.notes)
     with pytest.raises(UserError, match="not direction dependent"):
         build_export(result(), ExportOptions(fmt="siemens", mode="bidirectional"))
@@ -86,7 +86,7 @@ def test_fanuc_export_bidirectional() -> None:
 def test_fanuc_backlash_mode_gives_the_lost_motion() -> None:
     # lost motion: the axis stops 1.2 um short when moving +, 1.2 um past when moving − ...
     ex = build_export(result(TARGET, UP - 1.2, UP + 1.2), ExportOptions(fmt="fanuc", mode="backlash", step=50.0))
-    assert ex.table.backlash_um == pytest.approx(-2.4)  # B̄ = x̄↑ − x̄↓
+    assert ex.table.backlash == pytest.approx(-2.4)  # B̄ = x̄↑ − x̄↓
     assert "1851 = 2 " in ex.notes[0]  # ... 2.4 um lost motion → 2 detection units
     assert read_fanuc(ex.text).params["3605#0"] == 0
     with pytest.raises(UserError, match="rotary"):

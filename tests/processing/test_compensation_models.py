@@ -167,3 +167,10 @@ def test_fit_model_names_and_bad_input() -> None:
         fit_linear(np.array([0.0, 0.0, 1.0]), np.zeros(3))
     with pytest.raises(ValueError, match="finite"):
         fit_linear(np.array([0.0, 1.0]), np.array([0.0, np.nan]))
+
+
+def test_spline_on_a_straight_line_needs_only_the_end_knots() -> None:
+    x = np.array([0.0, 10.0, 25.0, 40.0, 60.0])
+    m = fit_adaptive_spline(x, 1.5 - 0.1 * x, tolerance=1e-9)
+    assert list(m.knots) == [0, 4] and m.iterations == 1
+    assert m(np.array([30.0]))[0] == pytest.approx(-1.5)

@@ -20,15 +20,15 @@ def test_bidirectional_table_keeps_both_curves() -> None:
     np.testing.assert_allclose(t.directional()[0], UP)
     np.testing.assert_allclose(t.directional()[1], DOWN)
     t = build_table(TARGET, UP, DOWN, positions=np.array([50.0, 250.0, 400.0]))
-    np.testing.assert_allclose(t.error_up_um, [2.0, 0.5, -1.0])  # held beyond the last target
-    np.testing.assert_allclose(t.error_down_um, [-0.5, -1.5, -4.0])
+    np.testing.assert_allclose(t.error_up, [2.0, 0.5, -1.0])  # held beyond the last target
+    np.testing.assert_allclose(t.error_down, [-0.5, -1.5, -4.0])
 
 
 def test_backlash_mode_is_mean_curve_plus_mean_reversal() -> None:
     t = build_table(TARGET, UP, DOWN, mode="backlash")
     # B_i = up − down = 2, 3, 1, 3 → B̄ = 2.25; mean curve 0, 1.5, 1.5, −2.5
-    assert t.backlash_um == pytest.approx(2.25)
-    np.testing.assert_allclose(t.error_up_um, [0.0, 1.5, 1.5, -2.5])
+    assert t.backlash == pytest.approx(2.25)
+    np.testing.assert_allclose(t.error_up, [0.0, 1.5, 1.5, -2.5])
     e_up, e_dn = t.directional()
     np.testing.assert_allclose(e_up, [1.125, 2.625, 2.625, -1.375])
     np.testing.assert_allclose(e_dn, [-1.125, 0.375, 0.375, -3.625])
@@ -81,3 +81,8 @@ def test_residual_on_a_coarser_controller_grid() -> None:
     assert lin.max_abs == pytest.approx(8 / 3) and lin.range == pytest.approx(8 / 3)
     assert lin.rms == pytest.approx(np.sqrt((64 / 9 + 49 / 9) / 4))
     assert ResidualStats.of(np.array([3.0, -4.0])).rms == pytest.approx(np.sqrt(12.5))
+
+
+def test_a_nan_target_is_refused() -> None:
+    with pytest.raises(ValueError, match="finite"):
+        split_directions(np.array([0.0, np.nan, 2.0]), np.zeros(3), np.zeros(3))

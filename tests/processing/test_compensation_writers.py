@@ -70,7 +70,7 @@ def test_linuxcnc_round_trip_reproduces_the_model_residual(file_type: int, model
     assert all(len(sscanf_lf3(ln)) == 3 for ln in text.splitlines())  # no header, no comment
     c = read_linuxcnc_comp(text, file_type)
     assert c.lines_read == len(table) and not c.errors
-    for mean, e_tab, direction in ((UP, table.error_up_um, +1), (DOWN, table.error_down_um, -1)):
+    for mean, e_tab, direction in ((UP, table.error_up, +1), (DOWN, table.error_down, -1)):
         compensated = mean + c.correction_um(TARGET, direction)
         intended = mean - np.interp(TARGET, table.position, e_tab)
         np.testing.assert_allclose(compensated, intended, atol=2e-3)  # 1 nm file resolution, float32 trims
@@ -148,14 +148,14 @@ def test_fanuc_bidirectional_tables_reproduce_the_intended_correction() -> None:
     step, ref = 50.0, 100.0
     grid = equidistant_grid(0.0, 500.0, step, anchor=ref)
     table = build_table(TARGET, UP, DOWN, model="spline", positions=grid)
-    t = fanuc_pitch_table(table.error_up_um, table.error_down_um, grid_mm=grid, reference_position_mm=ref,
+    t = fanuc_pitch_table(table.error_up, table.error_down, grid_mm=grid, reference_position_mm=ref,
                           first_number=10)
     f = read_fanuc(fanuc_text(t))
     assert f.params["3605#0"] == 1 and f.params["3621"] == 10 and f.params["3620"] == 11
     assert f.params["3626"] == f.params["3622"] + 1
-    e_ref = table.error_up_um[2]  # reference return in + direction: the + curve is zero at the reference
-    assert f.params["3627"] == round(-(table.error_down_um[2] - e_ref))
-    for e_tab, direction in ((table.error_up_um, +1), (table.error_down_um, -1)):
+    e_ref = table.error_up[2]  # reference return in + direction: the + curve is zero at the reference
+    assert f.params["3627"] == round(-(table.error_down[2] - e_ref))
+    for e_tab, direction in ((table.error_up, +1), (table.error_down, -1)):
         compensated = e_tab + f.correction_um(grid, ref, direction, 1.0)
         np.testing.assert_allclose(compensated, e_ref, atol=0.5 + 1e-9)  # within half a count
 
@@ -183,15 +183,15 @@ def test_siemens_sign_a_plus_5um_error_is_a_plus_0_005_value() -> None:
 def test_siemens_round_trip_reproduces_the_model_residual() -> None:
     grid = equidistant_grid(0.0, 500.0, 25.0)
     table = build_table(TARGET, UP, DOWN, model="segments", mode="backlash", positions=grid)
-    text = siemens_lec_text(grid, table.error_up_um, axis="Y1", encoder=1, max_points=21)
+    text = siemens_lec_text(grid, table.error_up, axis="Y1", encoder=1, max_points=21)
     lec = read_siemens_lec(text)
     assert (lec.step, lec.minimum, lec.maximum, lec.modulo) == (25.0, 0.0, 500.0, False)
     assert lec.axis == "Y1" and lec.encoder == 1
     mean = (UP + DOWN) / 2
     compensated = mean + lec.correction_um(TARGET)
-    np.testing.assert_allclose(compensated, mean - np.interp(TARGET, grid, table.error_up_um), atol=1e-3)
+    np.testing.assert_allclose(compensated, mean - np.interp(TARGET, grid, table.error_up), atol=1e-3)
     with pytest.raises(ValueError, match="MD38000"):
-        siemens_lec_text(grid, table.error_up_um, max_points=20)
+        siemens_lec_text(grid, table.error_up, max_points=20)
 
 
 def test_siemens_limits_and_modulo() -> None:
