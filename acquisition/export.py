@@ -29,6 +29,7 @@ from .errors import UserError
 FORMATS = ("linuxcnc", "fanuc", "siemens", "csv")
 SUFFIX = {"linuxcnc": ".comp", "fanuc": ".txt", "siemens": ".ini", "csv": ".csv"}
 EQUIDISTANT = ("fanuc", "siemens")
+MAX_GRID_POINTS = 100_000  # no controller takes more; guards against a mistyped --step
 UNITS = {"linear": ("mm", "um", 1e-3), "rotary": ("deg", "arcsec", 1.0 / 3600.0)}
 
 
@@ -95,9 +96,14 @@ def axis_data(result: Any) -> AxisData:
     unit = getattr(result, "unit", err_unit)
     if unit != err_unit:
         raise UserError(f"a {axis_type} axis must report deviations in {err_unit}, not {unit!r}")
-    df = per_target.sort_values("target")
-    return AxisData(df["target"].to_numpy(float), df["mean_up"].to_numpy(float), df["mean_down"].to_numpy(float),
-                    axis_type, pos_unit, err_unit, scale)
+    try:
+        df = per_target.sort_values("target")
+        cols = [df[c].to_numpy(float) for c in ("target", "mean_up", "mean_down")]
+    except (TypeError, ValueError) as exc:
+        raise UserError(f"per-target results are not numeric ({exc}); re-run `guideway process`") from exc
+    if len(cols[0]) < 2:
+        raise UserError(f"{len(cols[0])} target(s) evaluated; a compensation table needs at least 2")
+    return AxisData(*cols, axis_type, pos_unit, err_unit, scale)
 
 
 def _grid(d: AxisData, o: ExportOptions) -> np.ndarray | None:
@@ -109,8 +115,10 @@ def _grid(d: AxisData, o: ExportOptions) -> np.ndarray | None:
         step = max(round((x1 - x0) / (len(d.target) - 1), 3), 0.001)
     if not step > 0:
         raise UserError(f"--step must be positive, got {step:g}")
+    ref = x0 if o.reference_position is None else o.reference_position
+    if (max(x1, ref) - min(x0, ref)) / step > MAX_GRID_POINTS:
+        raise UserError(f"--step {step:g} gives more than {MAX_GRID_POINTS} table points; use a larger step")
     if o.fmt == "fanuc":
-        ref = x0 if o.reference_position is None else o.reference_position
         return equidistant_grid(min(x0, ref), max(x1, ref), step, anchor=ref)
     grid = equidistant_grid(x0, x1, step)
     if o.fmt == "siemens" and o.siemens_modulo and abs(grid[-1] - grid[0] - 360.0) > 1e-6:

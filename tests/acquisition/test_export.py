@@ -112,6 +112,10 @@ def test_bad_inputs_are_user_errors() -> None:
         build_export(object(), ExportOptions(fmt="csv"))
     with pytest.raises(UserError, match="mean_down"):
         build_export(Result(pd.DataFrame({"target": TARGET, "mean_up": UP})), ExportOptions(fmt="csv"))
+    with pytest.raises(UserError, match="at least 2"):
+        build_export(result(TARGET[:1], UP[:1], DOWN[:1]), ExportOptions(fmt="csv"))
+    with pytest.raises(UserError, match="larger step"):
+        build_export(result(), ExportOptions(fmt="siemens", step=1e-5))
     with pytest.raises(UserError, match="256"):
         build_export(result(), ExportOptions(fmt="linuxcnc", step=1.0))
     with pytest.raises(UserError, match="at least 7"):
