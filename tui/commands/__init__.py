@@ -15,6 +15,7 @@ COMMAND_MODULES = (
     "process",
     "import_data",
     "air_index",
+    "export",
 )
 
 

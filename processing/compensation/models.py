@@ -1,0 +1,273 @@
+"""Models of an axis error curve e(x) from per-target mean deviations.
+
+Units: positions ``x`` in the axis unit (mm, or deg for a rotary axis); errors ``e`` in the
+deviation unit (um, or arcsec), e = actual − commanded (ISO 230-2 x̄_i, standards.md §4.0).
+Every model evaluates at arbitrary positions; outside the measured range it holds the value at
+the nearest end (as CNC compensation tables do), it never extrapolates.
+
+Models (standards.md §5, seeds 003 and 004):
+
+* ``linear``     – straight lines between the measured means;
+* ``spline``     – natural cubic spline with adaptive knots (seed 003, :func:`fit_adaptive_spline`);
+* ``segments``   – piecewise least-squares line segments, threshold max|e|/20 (seed 004,
+  :func:`fit_segments`);
+* ``polynomial`` – least-squares polynomial of a given degree.
+
+Forward (↑) and reverse (↓) curves are modelled separately by fitting each on its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline, make_lsq_spline
+from scipy.signal import argrelextrema
+
+MODEL_NAMES = ("linear", "spline", "segments", "polynomial")
+DEFAULT_POLYNOMIAL_DEGREE = 6  # seed 003 compares against a 6th-order polynomial
+THRESHOLD_FRACTION = 1.0 / 20.0  # seed 004: threshold = 1/20 of the largest measured |e|
+
+
+def _check_xy(x: np.ndarray, e: np.ndarray, need: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    x = np.asarray(x, dtype=float)
+    e = np.asarray(e, dtype=float)
+    if x.ndim != 1 or x.shape != e.shape:
+        raise ValueError("positions and errors must be 1-D arrays of the same length")
+    if len(x) < need:
+        raise ValueError(f"need at least {need} measured points to model an error curve, got {len(x)}")
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(e))):
+        raise ValueError("positions and errors must be finite (drop unmeasured targets first)")
+    if np.any(np.diff(x) <= 0):
+        raise ValueError("positions must be strictly increasing")
+    return x, e
+
+
+def default_threshold(e: np.ndarray) -> float:
+    """Seed 004's threshold: max|e| / 20 (same unit as ``e``)."""
+    return float(np.max(np.abs(np.asarray(e, dtype=float)))) * THRESHOLD_FRACTION
+
+
+@dataclass(frozen=True)
+class ErrorModel:
+    """A fitted error curve.
+
+    ``nodes`` are the positions a non-equidistant table needs to reproduce the model with
+    linear interpolation as exactly as the model allows: the measured targets (linear), the
+    breakpoints (segments), the measured targets again for the smooth models (a table samples
+    them; resample on a finer grid for a closer match).
+    """
+
+    name: str
+    x: np.ndarray  # measured positions the model was fitted to
+    e: np.ndarray  # measured errors
+    nodes: np.ndarray
+
+    def _eval(self, x: np.ndarray) -> np.ndarray:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def __call__(self, x: np.ndarray | float) -> np.ndarray:
+        xq = np.clip(np.asarray(x, dtype=float), self.x[0], self.x[-1])
+        return self._eval(xq)
+
+    @property
+    def residual(self) -> np.ndarray:
+        """Measured minus modelled error at the measured positions."""
+        return self.e - self(self.x)
+
+
+@dataclass(frozen=True)
+class LinearModel(ErrorModel):
+    def _eval(self, x: np.ndarray) -> np.ndarray:
+        return np.interp(x, self.x, self.e)
+
+
+def fit_linear(x: np.ndarray, e: np.ndarray) -> LinearModel:
+    x, e = _check_xy(x, e)
+    return LinearModel("linear", x, e, x.copy())
+
+
+@dataclass(frozen=True)
+class SplineModel(ErrorModel):
+    knots: np.ndarray  # indices into x of the interpolation knots, ascending
+    tolerance: float
+    iterations: int
+    spline: CubicSpline
+
+    def _eval(self, x: np.ndarray) -> np.ndarray:
+        return self.spline(x)
+
+
+def curvature(u: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """κ_i = |e''| / (1 + e'²)^(3/2), derivatives by finite differences over the parameter ``u``
+    (standards.md §5.1)."""
+    d1 = np.gradient(e, u)
+    d2 = np.gradient(d1, u)
+    return np.abs(d2) / (1.0 + d1**2) ** 1.5
+
+
+def curvature_maxima(e: np.ndarray) -> np.ndarray:
+    """Indices of the interior local curvature maxima (κ_i > κ_{i−1} and κ_i > κ_{i+1}),
+    largest curvature first (ties: lower index first).
+
+    The curvature is taken over the uniform parameter u_i = i (seed 003 parameterises the
+    measured points uniformly), so the knot choice does not depend on the position unit.
+    """
+    e = np.asarray(e, dtype=float)
+    k = curvature(np.arange(len(e), dtype=float), e)
+    (idx,) = argrelextrema(k, np.greater)
+    order = np.lexsort((idx, -k[idx]))
+    return idx[order]
+
+
+def _natural_spline(x: np.ndarray, e: np.ndarray, knots: np.ndarray) -> CubicSpline:
+    if len(knots) == 2:  # a natural spline through two points is their straight line
+        return CubicSpline(x[knots], e[knots], bc_type="not-a-knot")
+    return CubicSpline(x[knots], e[knots], bc_type="natural")
+
+
+def fit_adaptive_spline(
+    x: np.ndarray,
+    e: np.ndarray,
+    *,
+    tolerance: float | None = None,
+    initial_maxima: int | None = None,
+) -> SplineModel:
+    """Natural cubic spline with adaptively chosen knots (seed 003, standards.md §5.1).
+
+    1. Initial knots: both end points plus the ``initial_maxima`` largest local curvature
+       maxima (all of them when ``None``; curvature over the uniform parameter, see
+       :func:`curvature_maxima`).
+    2. Interpolate the knots with a natural cubic spline of e over x (S'' = 0 at both end
+       knots).
+    3. Every measured point whose |residual| exceeds ``tolerance`` becomes a knot (batch
+       insertion, as in seed 003: "the error data points whose residual exceeds the allowed
+       residual are added as new knots"); repeat from 2 until all |residual| ≤ ``tolerance``.
+
+    ``tolerance`` is in the unit of ``e`` (default max|e|/20).  Terminates: each pass adds at
+    least one knot, and with every point a knot the residual is zero.
+    """
+    x, e = _check_xy(x, e)
+    tol = default_threshold(e) if tolerance is None else float(tolerance)
+    if tol < 0:
+        raise ValueError("spline tolerance must be >= 0")
+    maxima = curvature_maxima(e) if len(x) >= 3 else np.array([], dtype=int)
+    if initial_maxima is not None:
+        if initial_maxima < 0:
+            raise ValueError("number of initial curvature maxima must be >= 0")
+        maxima = maxima[:initial_maxima]
+    knots = np.unique(np.concatenate(([0, len(x) - 1], maxima)).astype(int))
+    iterations = 0
+    while True:
+        iterations += 1
+        spline = _natural_spline(x, e, knots)
+        r = np.abs(e - spline(x))
+        over = np.flatnonzero(r > tol)
+        if over.size == 0:
+            break
+        knots = np.union1d(knots, over)
+    return SplineModel("spline", x, e, x.copy(), knots, tol, iterations, spline)
+
+
+@dataclass(frozen=True)
+class SegmentModel(ErrorModel):
+    breakpoints: np.ndarray  # indices into x; segment s spans breakpoints[s] .. breakpoints[s+1]
+    threshold: float
+    node_values: np.ndarray  # polyline values at the breakpoints
+
+    def _eval(self, x: np.ndarray) -> np.ndarray:
+        return np.interp(x, self.nodes, self.node_values)
+
+    @property
+    def segments(self) -> list[tuple[int, int]]:
+        """(first, last) index of each segment; adjacent segments share their end point."""
+        b = self.breakpoints
+        return [(int(b[i]), int(b[i + 1])) for i in range(len(b) - 1)]
+
+
+def _ls_line_max_residual(x: np.ndarray, e: np.ndarray) -> float:
+    if len(x) <= 2:
+        return 0.0
+    xm = x.mean()
+    sxx = float(np.sum((x - xm) ** 2))
+    slope = float(np.sum((x - xm) * (e - e.mean()))) / sxx
+    return float(np.max(np.abs(e - (e.mean() + slope * (x - xm)))))
+
+
+def segment_breakpoints(x: np.ndarray, e: np.ndarray, threshold: float) -> np.ndarray:
+    """Greedy sliding-window segmentation (seed 004, standards.md §5.2).
+
+    A segment starts at point i and grows to j while the least-squares line through points
+    i … j keeps every |residual| ≤ ``threshold``; when point j+1 would break the bound the
+    segment closes at j and the next one starts at j (shared breakpoint).  Returns the
+    breakpoint indices, first and last point included.
+    """
+    n = len(x)
+    bps = [0]
+    start = 0
+    while start < n - 1:
+        end = start + 1  # two points always lie on their LS line
+        while end + 1 < n and _ls_line_max_residual(x[start : end + 2], e[start : end + 2]) <= threshold:
+            end += 1
+        bps.append(end)
+        start = end
+    return np.asarray(bps, dtype=int)
+
+
+def fit_segments(x: np.ndarray, e: np.ndarray, *, threshold: float | None = None) -> SegmentModel:
+    """Piecewise least-squares line segments (seed 004), ``threshold`` in the unit of ``e``
+    (default max|e|/20).
+
+    The table stores one value per breakpoint.  The values are those of the continuous
+    least-squares polyline with these breakpoints (a linear LSQ spline), so the modelled curve
+    is continuous and as close as a polyline on these nodes can be in the least-squares sense.
+    """
+    x, e = _check_xy(x, e)
+    tau = default_threshold(e) if threshold is None else float(threshold)
+    if tau < 0:
+        raise ValueError("segment threshold must be >= 0")
+    bps = segment_breakpoints(x, e, tau)
+    nodes = x[bps]
+    t = np.concatenate(([nodes[0]], nodes, [nodes[-1]]))
+    values = make_lsq_spline(x, e, t, k=1)(nodes)
+    return SegmentModel("segments", x, e, nodes, bps, tau, np.asarray(values, dtype=float))
+
+
+@dataclass(frozen=True)
+class PolynomialModel(ErrorModel):
+    degree: int
+    polynomial: np.polynomial.Polynomial
+
+    def _eval(self, x: np.ndarray) -> np.ndarray:
+        return self.polynomial(x)
+
+
+def fit_polynomial(x: np.ndarray, e: np.ndarray, *, degree: int = DEFAULT_POLYNOMIAL_DEGREE) -> PolynomialModel:
+    """Least-squares polynomial of ``degree`` (domain scaled to [−1, 1] for conditioning)."""
+    if degree < 0:
+        raise ValueError("polynomial degree must be >= 0")
+    x, e = _check_xy(x, e, need=degree + 1)
+    poly = np.polynomial.Polynomial.fit(x, e, degree)
+    return PolynomialModel("polynomial", x, e, x.copy(), degree, poly)
+
+
+def fit_model(
+    name: str,
+    x: np.ndarray,
+    e: np.ndarray,
+    *,
+    tolerance: float | None = None,
+    initial_maxima: int | None = None,
+    degree: int = DEFAULT_POLYNOMIAL_DEGREE,
+) -> ErrorModel:
+    """Fit the model called ``name`` (one of :data:`MODEL_NAMES`).  ``tolerance`` is the spline
+    tolerance or the segment threshold (unit of ``e``, default max|e|/20)."""
+    if name == "linear":
+        return fit_linear(x, e)
+    if name == "spline":
+        return fit_adaptive_spline(x, e, tolerance=tolerance, initial_maxima=initial_maxima)
+    if name == "segments":
+        return fit_segments(x, e, threshold=tolerance)
+    if name == "polynomial":
+        return fit_polynomial(x, e, degree=degree)
+    raise ValueError(f"unknown model {name!r}; choose one of {', '.join(MODEL_NAMES)}")

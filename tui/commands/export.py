@@ -1,0 +1,84 @@
+"""``guideway export RUN_DIR --format ...``: CNC compensation table from a positioning run."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+
+def run(args: argparse.Namespace) -> int:
+    from acquisition.export import ExportOptions, export_run
+    from processing.compensation.residuals import format_comparison
+
+    options = ExportOptions(
+        fmt=args.format, model=args.model, mode=args.mode, step=args.step, tolerance=args.tolerance,
+        initial_maxima=args.initial_knots, degree=args.degree, axis=args.axis,
+        reference_position=args.reference_position, linuxcnc_type=args.linuxcnc_type,
+        fanuc_magnification=args.fanuc_magnification, fanuc_detection_unit_um=args.fanuc_detection_unit,
+        fanuc_first_point=args.fanuc_first_point, fanuc_reference_point=args.fanuc_reference_point,
+        fanuc_negative_table=args.fanuc_negative_table, fanuc_reference_direction=args.fanuc_reference_direction,
+        siemens_axis=args.siemens_axis, siemens_encoder=args.siemens_encoder, siemens_modulo=args.siemens_modulo,
+        siemens_max_points=args.siemens_max_points,
+    )
+    run_, export = export_run(args.run_dir, options)
+    for w in run_.warnings:
+        print(f"guideway: warning: {w}", file=sys.stderr)
+    to_stdout = args.out is not None and str(args.out) == "-"
+    info = sys.stderr if to_stdout else sys.stdout
+    if to_stdout:
+        sys.stdout.write(export.text)
+    else:
+        out = args.out or (run_.path / "results" / f"compensation-{args.format}{export.suffix}")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(export.text, encoding="utf-8", newline="\n")
+        print(f"{args.format} table ({len(export.table)} points, model {args.model}) written to {out}", file=info)
+    for note in export.notes:
+        print(note, file=info)
+    print(f"residual after compensation (measured targets, both directions, {export.error_unit}):", file=info)
+    print(format_comparison(export.comparison, export.error_unit), file=info)
+    return 0
+
+
+def register(sub) -> None:  # noqa: ANN001
+    from acquisition.export import FORMATS
+    from processing.compensation.models import DEFAULT_POLYNOMIAL_DEGREE, MODEL_NAMES
+    from processing.compensation.tables import MODES
+
+    ex = sub.add_parser("export", help="write a CNC compensation table from a positioning run",
+                        description="Model the per-target mean deviations of a positioning run and write a "
+                                    "compensation table; prints every model's residual after compensation.")
+    ex.add_argument("run_dir", type=Path)
+    ex.add_argument("--format", required=True, choices=FORMATS)
+    ex.add_argument("--model", default="linear", choices=MODEL_NAMES)
+    ex.add_argument("--mode", choices=MODES, default=None,
+                    help="separate +/- tables, or one mean table + backlash (default: bidirectional; "
+                         "siemens: backlash)")
+    ex.add_argument("--out", type=Path, default=None,
+                    help="output file ('-' = stdout; default RUN_DIR/results/compensation-FORMAT.*)")
+    ex.add_argument("--step", type=float, default=None,
+                    help="equidistant grid step, mm or deg (default: model nodes; fanuc/siemens: mean target "
+                         "spacing rounded to 0.001)")
+    ex.add_argument("--tolerance", type=float, default=None,
+                    help="spline tolerance / segment threshold, um or arcsec (default max|e|/20)")
+    ex.add_argument("--initial-knots", type=int, default=None,
+                    help="spline: curvature maxima taken as initial knots, largest first (default all)")
+    ex.add_argument("--degree", type=int, default=DEFAULT_POLYNOMIAL_DEGREE, help="polynomial degree")
+    ex.add_argument("--axis", default=None, help="axis name (default run.json setup.axis_name)")
+    ex.add_argument("--reference-position", type=float, default=None,
+                    help="fanuc: reference position, mm (default first target); siemens: table zero point")
+    ex.add_argument("--linuxcnc-type", type=int, choices=(0, 1), default=1, help="COMP_FILE_TYPE")
+    ex.add_argument("--fanuc-magnification", type=int, default=1, help="parameter 3623")
+    ex.add_argument("--fanuc-detection-unit", type=float, default=1.0, help="detection unit, um")
+    ex.add_argument("--fanuc-first-point", type=int, default=0,
+                    help="number of the first compensation point of this axis (3621)")
+    ex.add_argument("--fanuc-reference-point", type=int, default=None, help="parameter 3620 (overrides first point)")
+    ex.add_argument("--fanuc-negative-table", type=int, default=None,
+                    help="parameter 3626, first point of the negative-direction table (default after 3622)")
+    ex.add_argument("--fanuc-reference-direction", type=int, choices=(1, -1), default=1,
+                    help="reference-return direction")
+    ex.add_argument("--siemens-axis", default=None, help="machine axis in $AA_ENC_COMP[e,N,AX] (default AXIS1)")
+    ex.add_argument("--siemens-encoder", type=int, choices=(0, 1), default=0, help="measuring system e")
+    ex.add_argument("--siemens-modulo", action="store_true", help="modulo table (rotary, 360 deg span)")
+    ex.add_argument("--siemens-max-points", type=int, default=None, help="MD38000 MM_ENC_COMP_MAX_POINTS")
+    ex.set_defaults(func=run)
