@@ -4,9 +4,9 @@ each transport: tests/mocks/test_sensor_links.py."""
 
 from __future__ import annotations
 
-import pytest
-
 import math
+
+import pytest
 
 from mocks.faults import FaultPlan
 from mocks.keyence_lkg import KeyenceLKGEmulator, format_value
@@ -94,7 +94,8 @@ def test_invalid_value_strings() -> None:
 @pytest.mark.parametrize(
     ("spec", "reply"),
     [("sensor:drop@1", b""), ("sensor:garbage@1", b"\x8f\x13#?\xfe\r"), ("sensor:error@1", b"ER,M1,99\r"),
-     ("sensor:error@1=88", b"ER,M1,88\r"), ("sensor:corrupt@1", b"M1,+00\xae5000\r")],  # bit 7 of byte 13 // 2 = 6 ('.') flipped
+     # corrupt: bit 7 of the middle byte (13 // 2 = 6, the '.') flipped
+     ("sensor:error@1=88", b"ER,M1,88\r"), ("sensor:corrupt@1", b"M1,+00\xae5000\r")],
 )
 def test_faults_apply_to_the_reply(spec: str, reply: bytes) -> None:
     emu = KeyenceLKGEmulator(lambda out: 0.5, decimals=4, faults=FaultPlan.parse(spec))

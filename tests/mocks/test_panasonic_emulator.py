@@ -35,7 +35,8 @@ class Source:
 
 
 def test_manual_examples() -> None:
-    assert PanasonicHLG1Emulator(Source(-12.3456), station=3, range_mm=20).receive(b"%03#RMD**\r") == b"%03$RMD-0123456**\r"
+    at_3 = PanasonicHLG1Emulator(Source(-12.3456), station=3, range_mm=20)
+    assert at_3.receive(b"%03#RMD**\r") == b"%03$RMD-0123456**\r"
     emu = PanasonicHLG1Emulator(Source(-12.3456), range_mm=20)
     assert emu.receive(b"%01#RMD5C\r") == b"%01$RMD-012345641\r"
     assert emu.receive(b"%01#RSP**\r") == b"%01$RSP+00001**\r"
