@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TypeVar
 
-from .errors import ProtocolError
+from .errors import DeviceError
 from .transport import ByteLink
 
 T = TypeVar("T")
@@ -34,8 +34,9 @@ class RequestReply:
         """Send ``request``; return ``(decode(reply), reply)``.
 
         Raises what the link raises (:class:`~drivers.errors.TransportError`)
-        or what ``decode`` raises (:class:`ProtocolError`,
-        :class:`~drivers.errors.DeviceError`).
+        or what ``decode`` raises (:class:`~drivers.errors.ProtocolError`,
+        :class:`DeviceError`); after anything but a device error the next
+        exchange starts by discarding waiting input.
         """
         if self._stale:
             self.link.discard_input()
@@ -44,10 +45,8 @@ class RequestReply:
         frame = self.link.read_until(self.terminator, timeout_s)
         try:
             value = decode(frame)
-        except ProtocolError:
-            raise
-        except Exception:
-            self._stale = False  # a device error is a well-formed reply
+        except DeviceError:
+            self._stale = False  # a device error is a well-formed reply: the line is in step
             raise
         self._stale = False
         return value, frame
