@@ -9,11 +9,12 @@ from typing import Any
 from drivers.errors import DriverError
 from drivers.interferometer import InterferometerController
 from drivers.keyence_lkg import KeyenceLKG
+from drivers.panasonic_hlg1 import PanasonicHLG1
 from drivers.sensor import DisplacementSensor
 
 from .errors import UserError
 
-SENSOR_DRIVERS: dict[str, type[DisplacementSensor]] = {"keyence-lkg": KeyenceLKG}
+SENSOR_DRIVERS: dict[str, type[DisplacementSensor]] = {"keyence-lkg": KeyenceLKG, "panasonic-hlg1": PanasonicHLG1}
 
 
 @dataclass

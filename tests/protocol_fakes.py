@@ -63,3 +63,49 @@ class ExpectedProtocol:
         assert not self._sent, f"partial command {bytes(self._sent)!r} left"
         assert not self._reply, f"reply bytes {bytes(self._reply)!r} left unread"
         assert not self._exchanges, f"expected exchanges not performed: {self._exchanges!r}"
+
+
+class EmulatorLink:
+    """In-process :class:`~drivers.transport.ByteLink` to an emulator's ``receive``.
+
+    What the driver writes goes straight to ``emulator.receive``; the reply
+    waits in a buffer for the driver's reads.  A missing terminator is a
+    :class:`TransportTimeout`, as on a real link.
+    """
+
+    def __init__(self, emulator) -> None:  # noqa: ANN001 - any object with receive(bytes) -> bytes
+        self.emulator = emulator
+        self._buf = bytearray()
+        self.discards = 0
+
+    def write(self, data: bytes) -> None:
+        self._buf += self.emulator.receive(data)
+
+    def read_until(self, terminator: bytes, timeout_s: float) -> bytes:
+        idx = self._buf.find(terminator)
+        if idx < 0:
+            partial = bytes(self._buf)
+            self._buf.clear()
+            raise TransportTimeout(f"no terminator (got {partial!r})")
+        frame = bytes(self._buf[: idx + len(terminator)])
+        del self._buf[: idx + len(terminator)]
+        return frame
+
+    def read_exact(self, count: int, timeout_s: float) -> bytes:
+        if len(self._buf) < count:
+            self._buf.clear()
+            raise TransportTimeout("not enough bytes")
+        data = bytes(self._buf[:count])
+        del self._buf[:count]
+        return data
+
+    def inject(self, data: bytes) -> None:
+        """Bytes that arrive unasked (a late reply, line noise)."""
+        self._buf += data
+
+    def discard_input(self) -> None:
+        self.discards += 1
+        self._buf.clear()
+
+    def close(self) -> None:
+        pass

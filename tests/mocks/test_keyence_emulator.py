@@ -1,14 +1,15 @@
-"""The LK-G emulator against the manual's formats, and the real driver against
-the emulator over each transport (in-process, TCP loopback, real pty)."""
+"""The LK-G emulator against the manual's formats and command table
+(protocols.md sections 1.1 and 1.2).  The drivers against the emulators over
+each transport: tests/mocks/test_sensor_links.py."""
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
-from drivers.keyence_lkg import KeyenceLKG
-from drivers.transport import open_serial
+from mocks.faults import FaultPlan
 from mocks.keyence_lkg import KeyenceLKGEmulator, format_value
-from mocks.serial_endpoints import PtyEndpoint, TcpEndpoint
 
 
 @pytest.mark.parametrize(
@@ -36,49 +37,70 @@ def test_emulator_state_machine() -> None:
     assert emu.receive(b"M1\r") == b"M1,+FFFFFFF\r"
 
 
-class _Source:
-    def __init__(self) -> None:
-        self.value = 0.25
-
-    def __call__(self, _out: int) -> float:
-        return self.value
 
 
-def test_driver_in_process() -> None:
-    src = _Source()
-    emu = KeyenceLKGEmulator(src, decimals=5)
-
-    class Link:  # minimal in-process transport
-        buf = b""
-
-        def write(self, data: bytes) -> None:
-            self.buf += emu.receive(data)
-
-        def read_until(self, term: bytes, timeout_s: float) -> bytes:
-            i = self.buf.index(term) + 1
-            frame, self.buf = self.buf[:i], self.buf[i:]
-            return frame
-
-        def close(self) -> None:
-            pass
-
-    dev = KeyenceLKG(Link())  # type: ignore[arg-type]
-    assert dev.read_once().value_mm == 0.25
+def test_lkg5000_ms_command() -> None:
+    emu = KeyenceLKGEmulator(lambda out: 0.26 if out == 1 else -0.5 * out, decimals=3, outputs=4)
+    assert emu.receive(b"MS,01\r") == b"MS,01,+000.260\r"  # rlab script example
+    assert emu.receive(b"MS,04\r") == b"MS,04,-002.000\r"
+    assert emu.receive(b"MS,05\r") == b"ER,MS,22\r"  # no such output
+    assert emu.receive(b"MS,1\r") == b"ER,MS,22\r"  # two digits
+    assert emu.receive(b"MS\r") == b"ER,MS,21\r"
+    assert emu.receive(b"Q0\rMS,01\rR0\r") == b"Q0\rER,MS,01\rR0\r"
 
 
-@pytest.mark.parametrize("transport", ["tcp", "pty"])
-def test_driver_over_real_transport(transport: str) -> None:
-    src = _Source()
-    emu = KeyenceLKGEmulator(src, decimals=5)
-    endpoint = TcpEndpoint(emu) if transport == "tcp" else PtyEndpoint(emu, baudrate=115200)
-    url = endpoint.url if transport == "tcp" else endpoint.path
-    dev = KeyenceLKG(open_serial(url), endpoint=url)
-    try:
-        assert dev.read_once().value_mm == 0.25
-        src.value = -0.01234
-        avg = dev.read_averaged(3)
-        assert avg.ok and avg.count == 3 and avg.mean_mm == pytest.approx(-0.01234, abs=1e-12)
-        assert avg.std_mm == 0.0
-    finally:
-        dev.close()
-        endpoint.stop()
+def test_offsets_are_settings_of_the_set_up_mode() -> None:
+    values = {1: 1.0, 2: 2.0}
+    emu = KeyenceLKGEmulator(lambda out: values[out], decimals=4, range_mm=10)
+    assert emu.receive(b"SR,OF,01\r") == b"SR,OF,01,+00.0000\r"
+    assert emu.receive(b"SW,OF,01,+012345\r") == b"ER,SW,01\r"  # measure mode: status error
+    assert emu.receive(b"Q0\r") == b"Q0\r"
+    assert emu.receive(b"SW,OF,01,+012345\r") == b"SW,OF\r"  # 12345 counts of 0.0001 mm
+    assert emu.receive(b"SW,OF,02,-002000\r") == b"SW,OF\r"
+    assert emu.receive(b"SW,OF,01,+12345\r") == b"ER,SW,22\r"  # six digits
+    assert emu.receive(b"SW,OF,03,+000001\r") == b"ER,SW,22\r"
+    assert emu.receive(b"SW,OF,01\r") == b"ER,SW,21\r"
+    assert emu.receive(b"SR,OF,01\r") == b"SR,OF,01,+01.2345\r"  # readable in set-up mode too
+    assert emu.receive(b"VR,0\r") == b"ER,VR,01\r"  # reset needs measure mode
+    assert emu.receive(b"R0\r") == b"R0\r"
+    # value = source - offset
+    assert emu.receive(b"M0\r") == b"M0,-00.2345,+02.2000\r"
+    assert emu.receive(b"VR,1\r") == b"VR\r"
+    assert emu.receive(b"M0\r") == b"M0,+01.0000,+02.2000\r"
+    assert emu.receive(b"VR,0\r") == b"VR\r"
+    assert emu.receive(b"M2\r") == b"M2,+02.0000\r"
+    assert emu.receive(b"VR,3\r") == b"ER,VR,22\r"
+    assert emu.receive(b"VR\r") == b"ER,VR,21\r"
+
+
+def test_head_measurement_mode() -> None:
+    emu = KeyenceLKGEmulator(lambda out: 0.0)
+    assert emu.receive(b"SR,HB,02\r") == b"SR,HB,02,0\r"
+    assert emu.receive(b"SW,HB,02,3\r") == b"ER,SW,01\r"
+    assert emu.receive(b"Q0\rSW,HB,02,3\rR0\r") == b"Q0\rSW,HB\rR0\r"
+    assert emu.receive(b"sr,hb,02\r") == b"SR,HB,02,3\r"
+    assert emu.receive(b"SR,XX,02\r") == b"ER,SR,22\r"
+    assert emu.receive(b"SR,HB\r") == b"ER,SR,21\r"
+
+
+def test_invalid_value_strings() -> None:
+    src: dict[int, float | None] = {1: None, 2: math.nan}
+    emu = KeyenceLKGEmulator(lambda out: src[out], decimals=4, over_range=("+FFFFFFF", "-FFFFFFF"))
+    assert emu.receive(b"M0\r") == b"M0,XXXXXXXX,--------\r"
+    src[1], src[2] = -6.0, 6.0
+    assert emu.receive(b"M0\r") == b"M0,-FFFFFFF,+FFFFFFF\r"
+
+
+@pytest.mark.parametrize(
+    ("spec", "reply"),
+    [("sensor:drop@1", b""), ("sensor:garbage@1", b"\x8f\x13#?\xfe\r"), ("sensor:error@1", b"ER,M1,99\r"),
+     # corrupt: bit 7 of the middle byte (13 // 2 = 6, the '.') flipped
+     ("sensor:error@1=88", b"ER,M1,88\r"), ("sensor:corrupt@1", b"M1,+00\xae5000\r")],
+)
+def test_faults_apply_to_the_reply(spec: str, reply: bytes) -> None:
+    emu = KeyenceLKGEmulator(lambda out: 0.5, decimals=4, faults=FaultPlan.parse(spec))
+    assert emu.receive(b"M1\r") == reply
+    assert emu.receive(b"M1\r") == reply  # no COUNT: every request from N on
+    clean = KeyenceLKGEmulator(lambda out: 0.5, decimals=4, faults=FaultPlan.parse(spec.replace("@1", "@1x1")))
+    clean.receive(b"M1\r")
+    assert clean.receive(b"M1\r") == b"M1,+00.5000\r"
