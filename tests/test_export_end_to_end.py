@@ -1,6 +1,6 @@
 """``guideway export`` end to end: a hand-written positioning run (docs/run-format.md,
 "Positioning runs") → the positioning evaluator → a controller file, read back with the
-test-side readers.  Skipped until the positioning evaluator exists in this tree."""
+test-side readers."""
 
 from __future__ import annotations
 
@@ -10,11 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytest.importorskip("acquisition.evaluate_positioning")
-
-from processing.columns import POSITIONING_LINEAR  # noqa: E402
-from tests.controller_parsers import read_fanuc, read_linuxcnc_comp, read_siemens_lec  # noqa: E402
-from tui.cli import main  # noqa: E402
+from processing.columns import POSITIONING_LINEAR
+from tests.controller_parsers import read_fanuc, read_linuxcnc_comp, read_siemens_lec
+from tui.cli import main
 
 TARGETS_MM = [0.0, 101.5, 198.0, 302.5, 400.0]
 ERR_UP_UM = [0.0, 2.0, 3.5, 1.0, -1.5]  # mean deviation actual − target, + approach
