@@ -9,11 +9,12 @@ from typing import Any
 from drivers.errors import DriverError
 from drivers.interferometer import InterferometerController
 from drivers.keyence_lkg import KeyenceLKG
+from drivers.me_ild1420 import ILD1420
 from drivers.sensor import DisplacementSensor
 
 from .errors import UserError
 
-SENSOR_DRIVERS: dict[str, type[DisplacementSensor]] = {"keyence-lkg": KeyenceLKG}
+SENSOR_DRIVERS: dict[str, type[DisplacementSensor]] = {"keyence-lkg": KeyenceLKG, "me-ild1420": ILD1420}
 
 
 @dataclass
