@@ -30,7 +30,8 @@ class StreamBlock:
     ``values_mm`` (read-only numpy array) is NaN where ``statuses`` is not OK;
     ``raw_counts`` are the 18-bit values as sent.  ``frames_ok`` equals the
     number of values; ``extra_values`` counts additional per-block values
-    (H-byte flag ``11``) that were skipped.  ``frames_lost``, ``resyncs``
+    (H-byte flag ``11``) that were skipped, ``frames_skipped`` good frames
+    dropped on purpose (received while mastering changed the scaling).  ``frames_lost``, ``resyncs``
     (runs of damaged bytes the decoder skipped to find the next frame) and
     ``bytes_discarded`` count the damage detected since the previous block.
     ``timestamp_s`` is the host time (``time.time()``) when the last value was
@@ -45,6 +46,7 @@ class StreamBlock:
     resyncs: int
     bytes_discarded: int
     extra_values: int
+    frames_skipped: int
     timestamp_s: float
     duration_s: float
 
@@ -81,10 +83,12 @@ class ILD1420(DisplacementSensor):
         self.mastered = False
         self._output: str | None = None  # None until the driver knows (device default unknown)
         self._streaming = False
+        self._fresh = False
         self._decoder = protocol.FrameDecoder()
         # decoded (raw, values_mm, status codes) chunks not yet handed out
         self._backlog: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self._extra_pending = 0
+        self._skipped_pending = 0
         self._damage_seen = (0, 0, 0)
 
     @classmethod
@@ -96,13 +100,18 @@ class ILD1420(DisplacementSensor):
 
     # -- commands ---------------------------------------------------------------------------
 
-    def command(self, request: bytes) -> protocol.Reply:
-        """Send one encoded command and return its reply (frames read meanwhile are kept)."""
+    def command(self, request: bytes, *, keep_values: bool = True) -> protocol.Reply:
+        """Send one encoded command and return its reply.
+
+        While streaming, values read with the reply are kept for
+        :meth:`read_stream`, or counted as skipped with ``keep_values=False``.
+        """
         may_stream = self._output != "NONE" and self._output != "ANALOG"
         if not self._streaming:
             self._link.discard_input()
         buf = bytearray(self._decoder.take_carry() if self._streaming else b"")
-        stream_start = not self._streaming and may_stream
+        stream_start = may_stream and (not self._streaming or self._fresh)
+        self._fresh = False
         self._link.write(request)
         deadline = time.monotonic() + self.timeout_s
         while True:
@@ -125,7 +134,7 @@ class ILD1420(DisplacementSensor):
             )
         reply_text, rest = text[: idx + len(protocol.PROMPT)], text[idx + len(protocol.PROMPT):]
         if self._streaming:
-            self._take(frames + rest)
+            self._take(frames + rest, keep=keep_values)
         return protocol.parse_reply(reply_text, request)
 
     def identify(self) -> dict[str, str]:
@@ -161,18 +170,18 @@ class ILD1420(DisplacementSensor):
         """``MASTERMV MASTER <mm>``: the next value reads ``master_mm`` (0 = zero here).
 
         Values decoded afterwards use the mastered scaling (offset -0.51).
+        While streaming, values that arrive during the command are skipped
+        (counted in ``StreamBlock.frames_skipped``): which scaling they were
+        sent with is not known.
         """
         request = protocol.encode_master(master_mm, self.measuring_range_mm)
-        protocol.expect_no_lines(self.command(request), "MASTERMV")
-        self._set_mastered(True)
+        protocol.expect_no_lines(self.command(request, keep_values=False), "MASTERMV")
+        self.mastered = True
 
     def unmaster(self) -> None:
-        """``MASTERMV NONE``: back to distances over the measuring range."""
-        protocol.expect_no_lines(self.command(protocol.encode_master_none()), "MASTERMV")
-        self._set_mastered(False)
-
-    def _set_mastered(self, on: bool) -> None:
-        self.mastered = on  # values already in the backlog keep the scaling they were sent with
+        """``MASTERMV NONE``: back to distances over the measuring range (values in flight skipped)."""
+        protocol.expect_no_lines(self.command(protocol.encode_master_none(), keep_values=False), "MASTERMV")
+        self.mastered = False
 
     # -- polled value -----------------------------------------------------------------------
 
@@ -212,19 +221,33 @@ class ILD1420(DisplacementSensor):
     # -- continuous output ------------------------------------------------------------------
 
     def start_stream(self, *, set_output: bool = True) -> None:
-        """Start continuous acquisition (sends ``OUTPUT RS422`` unless ``set_output`` is False)."""
-        if set_output:
-            self.set_output("RS422")
+        """Start continuous acquisition (sends ``OUTPUT RS422`` unless ``set_output`` is False).
+
+        Buffered input is dropped first; every frame from then on is accounted for.
+        """
         self._link.discard_input()
         self._decoder.reset()
         self._backlog = []
         self._extra_pending = 0
+        self._skipped_pending = 0
         self._damage_seen = (0, 0, 0)
         self._streaming = True
+        self._fresh = True  # the first bytes may be the end of a frame sent before the flush
+        if set_output:
+            try:
+                self.set_output("RS422")
+            except DriverError:
+                self._streaming = False
+                raise
 
-    def _take(self, data: bytes) -> None:
+    def _take(self, data: bytes, *, keep: bool = True) -> None:
+        if self._fresh:
+            data = data[protocol.frame_tail_length(data):]
+            self._fresh = False
         raw, first = self._decoder.feed(data)
-        if len(raw):
+        if not keep:
+            self._skipped_pending += len(raw)
+        elif len(raw):
             distance = raw[first]
             values, codes = protocol.decode_values(distance, self.measuring_range_mm, mastered=self.mastered)
             self._backlog.append((distance, values, codes))
@@ -283,6 +306,7 @@ class ILD1420(DisplacementSensor):
         seen_lost, seen_resync, seen_bytes = self._damage_seen
         self._damage_seen = (d.frames_lost, d.resyncs, d.bytes_discarded)
         extra, self._extra_pending = self._extra_pending, 0
+        skipped, self._skipped_pending = self._skipped_pending, 0
         table = protocol.STATUS_BY_CODE
         return StreamBlock(
             values_mm=values,
@@ -293,6 +317,7 @@ class ILD1420(DisplacementSensor):
             resyncs=d.resyncs - seen_resync,
             bytes_discarded=d.bytes_discarded - seen_bytes,
             extra_values=extra,
+            frames_skipped=skipped,
             timestamp_s=time.time(),
             duration_s=duration_s,
         )

@@ -350,11 +350,18 @@ def separate(buf: bytes, *, stream_start: bool = False) -> tuple[bytes, bytes]:
     for offset in range(3):
         in_frame[starts + offset] = True
     text = ~in_frame
-    if stream_start and len(arr):
-        first_h = next((i for i in range(min(2, len(arr))) if arr[i] >> 6 >= FLAG_H_FIRST), None)
-        if first_h is not None and all(arr[i] >> 6 == FLAG_M for i in range(first_h)):
-            text[: first_h + 1] = False
+    if stream_start:
+        text[: frame_tail_length(arr)] = False
     return arr[in_frame].tobytes(), arr[text].tobytes()
+
+
+def frame_tail_length(buf: bytes | np.ndarray) -> int:
+    """Length of the end of a frame (``H`` or ``M H``) that ``buf`` starts with, else 0."""
+    if len(buf) >= 1 and buf[0] >> 6 >= FLAG_H_FIRST:
+        return 1
+    if len(buf) >= 2 and buf[0] >> 6 == FLAG_M and buf[1] >> 6 >= FLAG_H_FIRST:
+        return 2
+    return 0
 
 
 def scale_mm(raw: np.ndarray, measuring_range_mm: float, *, mastered: bool = False) -> np.ndarray:

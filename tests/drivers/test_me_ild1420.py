@@ -357,12 +357,12 @@ def test_stream_blocks_with_reply_interleaved_and_damage_counted() -> None:
     assert block.statuses == (MeasurementStatus.OK,) * 3
     assert (block.frames_lost, block.resyncs, block.bytes_discarded, block.extra_values) == (1, 1, 2, 1)
     assert not block.ok
-    dev.master(1.0)
-    block = dev.read_stream(8)  # 3, 5, 6, 7 (old scaling) then 8..11 (mastered)
-    assert block.raw_counts.tolist() == [raws[3], raws[5], raws[6], raws[7], *raws[8:]]
+    dev.master(1.0)  # f[6], f[7] arrive with the reply: scaling unknown, skipped
+    block = dev.read_stream(6)  # 3, 5 (range scaling) then 8..11 (mastered)
+    assert block.raw_counts.tolist() == [raws[3], raws[5], *raws[8:]]
     assert (block.frames_lost, block.resyncs, block.bytes_discarded, block.extra_values) == (0, 0, 0, 0)
-    assert block.ok
-    expected = [mm(r, 10.0) for r in (raws[3], raws[5], raws[6], raws[7])] + [mm(r, 10.0, 0.51) for r in raws[8:]]
+    assert block.frames_skipped == 2 and block.ok
+    expected = [mm(r, 10.0) for r in (raws[3], raws[5])] + [mm(r, 10.0, 0.51) for r in raws[8:]]
     assert block.values_mm.tolist() == pytest.approx(expected, abs=1e-12)
     with pytest.raises(ValueError):
         block.values_mm[0] = 0.0  # read-only
