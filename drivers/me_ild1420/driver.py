@@ -322,12 +322,20 @@ class ILD1420(DisplacementSensor):
             duration_s=duration_s,
         )
 
-    def stop_stream(self) -> None:
-        """Stop the output (``OUTPUT NONE``) and drop undelivered values."""
+    def stop_stream(self) -> StreamBlock | None:
+        """Stop the output (``OUTPUT NONE``); return the values not yet handed out.
+
+        The returned block also holds the frames that arrived with the reply,
+        so blocks from :meth:`read_stream` plus this one account for every
+        frame received.  ``None`` if no stream was running.
+        """
         if not self._streaming:
-            return
+            return None
+        t0 = time.monotonic()
         try:
             self.set_output("NONE")
+            self._decoder.flush()
+            return self._make_block(None, time.monotonic() - t0)
         finally:
             self._streaming = False
             self._backlog = []

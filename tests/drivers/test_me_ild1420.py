@@ -366,9 +366,10 @@ def test_stream_blocks_with_reply_interleaved_and_damage_counted() -> None:
     assert block.values_mm.tolist() == pytest.approx(expected, abs=1e-12)
     with pytest.raises(ValueError):
         block.values_mm[0] = 0.0  # read-only
-    dev.stop_stream()
+    final = dev.stop_stream()  # the frame that came with the reply
     link.assert_done()
-    assert not dev.streaming
+    assert final is not None and final.raw_counts.tolist() == [raws[0]]
+    assert not dev.streaming and dev.stop_stream() is None
 
 
 def test_stream_duration_returns_what_arrived() -> None:
