@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import DriverError, TransportTimeout
+from ..errors import DriverError, ProtocolError, TransportTimeout
 from ..readings import DisplacementReading, MeasurementStatus
 from ..sensor import DisplacementSensor
 from ..transport import StreamLink, open_serial
@@ -122,6 +122,8 @@ class ILD1420(DisplacementSensor):
             left = deadline - time.monotonic()
             chunk = self._stream_link.read_some(_READ_CHUNK, left) if left > 0 else b""
             if not chunk:
+                if self._streaming:
+                    self._take(frames)  # values read while waiting stay accounted for
                 name = request.split(b" ")[0].strip().decode("ascii", "replace")
                 raise TransportTimeout(
                     f"no '->' prompt from {self.endpoint or 'the ILD1420'} within {self.timeout_s:.3g} s "
@@ -129,7 +131,7 @@ class ILD1420(DisplacementSensor):
                 )
             buf += chunk
         if frames and not may_stream:
-            raise protocol.ProtocolError(
+            raise ProtocolError(
                 f"binary bytes in the ILD1420 reply to {request!r} while output is {self._output}"
             )
         reply_text, rest = text[: idx + len(protocol.PROMPT)], text[idx + len(protocol.PROMPT):]
