@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from drivers.errors import DriverError
 from drivers.me_ild1420 import ILD1420
 from drivers.me_ild1420 import protocol as p
-from tests.drivers.test_me_ild1420 import GETINFO_REPLY, ExpectedStream, frame
+from tests.drivers.ild1420_vectors import GETINFO_REPLY, ExpectedStream, frame
 
 SETTINGS = settings(max_examples=200, deadline=None)
 
