@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -143,3 +144,10 @@ def test_driver_on_random_bytes_raises_only_driver_errors(noise: bytes) -> None:
         except DriverError:
             continue
         assert int(reading.raw) in naive_frames(reply)
+
+
+@pytest.mark.soak
+@settings(max_examples=20000, deadline=None)
+@given(damaged_streams())
+def test_damaged_frames_soak(case) -> None:
+    test_damaged_frames_are_never_decoded_and_counted_exactly.hypothesis.inner_test(case)
