@@ -9,12 +9,17 @@ from typing import Any
 from drivers.errors import DriverError
 from drivers.interferometer import InterferometerController
 from drivers.keyence_lkg import KeyenceLKG
+from drivers.me_ild1420 import ILD1420
 from drivers.panasonic_hlg1 import PanasonicHLG1
 from drivers.sensor import DisplacementSensor
 
 from .errors import UserError
 
-SENSOR_DRIVERS: dict[str, type[DisplacementSensor]] = {"keyence-lkg": KeyenceLKG, "panasonic-hlg1": PanasonicHLG1}
+SENSOR_DRIVERS: dict[str, type[DisplacementSensor]] = {
+    "keyence-lkg": KeyenceLKG,
+    "panasonic-hlg1": PanasonicHLG1,
+    "me-ild1420": ILD1420,
+}
 
 
 @dataclass

@@ -32,6 +32,12 @@ class ByteLink(Protocol):
     def close(self) -> None: ...
 
 
+class StreamLink(ByteLink, Protocol):
+    """A :class:`ByteLink` that can also hand over whatever has arrived (continuous output)."""
+
+    def read_some(self, max_bytes: int, timeout_s: float) -> bytes: ...
+
+
 class SerialLink:
     """A :class:`ByteLink` over an open ``serial.SerialBase``."""
 
@@ -100,6 +106,17 @@ class SerialLink:
             self._pending += chunk
         data = bytes(self._pending[:count])
         del self._pending[:count]
+        return data
+
+    def read_some(self, max_bytes: int, timeout_s: float) -> bytes:
+        """Return up to ``max_bytes`` that have arrived, waiting up to ``timeout_s`` for the first.
+
+        Returns ``b""`` when nothing arrived: for a stream, silence is data, not an error.
+        """
+        if not self._pending:
+            self._pending += self._read_some(time.monotonic() + timeout_s)
+        data = bytes(self._pending[:max_bytes])
+        del self._pending[:max_bytes]
         return data
 
     def discard_input(self) -> None:
