@@ -58,3 +58,92 @@ def least_squares_line(x: np.ndarray, h: np.ndarray) -> LineFit:
         raise ValueError("all points have the same x")
     slope = float(np.sum((x - xm) * (h - hm))) / sxx
     return _fit("least_squares", x, h, slope, hm - slope * xm)
+
+
+# Above this many points the hull is found by qhull first (C speed); the chain
+# below then runs on its vertices only.
+QHULL_ABOVE = 2000
+
+
+def _chain(x: np.ndarray, z: np.ndarray, upper: bool) -> np.ndarray:
+    """Indices of the upper (or lower) convex hull of points with strictly increasing x
+    (Andrew's monotone chain; collinear points dropped)."""
+    sign = 1.0 if upper else -1.0
+    hull: list[int] = []
+    xs, zs = x.tolist(), z.tolist()
+    for i in range(len(xs)):
+        while len(hull) >= 2:
+            a, b = hull[-2], hull[-1]
+            cross = (xs[b] - xs[a]) * (zs[i] - zs[a]) - (zs[b] - zs[a]) * (xs[i] - xs[a])
+            if sign * cross >= 0:  # b is not strictly above (below) the chord a-i
+                hull.pop()
+            else:
+                break
+        hull.append(i)
+    return np.asarray(hull, dtype=np.intp)
+
+
+def _candidates(x: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Indices of a subset of points that contains every hull vertex (qhull for large inputs)."""
+    if len(x) <= QHULL_ABOVE:
+        return np.arange(len(x))
+    from scipy.spatial import ConvexHull, QhullError
+
+    span_x, span_z = np.ptp(x), np.ptp(z)
+    if span_z == 0:
+        return np.array([0, len(x) - 1])
+    pts = np.column_stack([(x - x[0]) / span_x, (z - z.min()) / span_z])  # affine: same hull
+    try:
+        return np.sort(ConvexHull(pts).vertices)
+    except QhullError:  # all points (numerically) on one line
+        return np.arange(len(x))
+
+
+def hulls(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(upper, lower) hull vertex indices into x, z, each in increasing x.
+
+    Points sharing an x contribute their highest value to the upper hull and
+    their lowest to the lower hull (vertical edges have no slope).
+    """
+    order = np.lexsort((z, x))
+    xs, zs = x[order], z[order]
+    last = np.r_[xs[1:] != xs[:-1], True]   # highest z of each x
+    first = np.r_[True, xs[1:] != xs[:-1]]  # lowest z of each x
+    out = []
+    for keep, upper in ((last, True), (first, False)):
+        idx = order[keep]
+        sub = _candidates(x[idx], z[idx])
+        idx = idx[sub]
+        out.append(idx[_chain(x[idx], z[idx], upper)])
+    return out[0], out[1]
+
+
+def minimum_zone_line(x: np.ndarray, h: np.ndarray) -> LineFit:
+    """Minimum-zone line (standards.md 2.2): two parallel lines enclosing every point
+    with the least vertical separation; returns the zone's centre line, so the
+    straightness (max - min deviation) equals the zone width.
+
+    Exact: the width w(b) = max(h - b x) - min(h - b x) is convex and piecewise
+    linear in the slope b with breakpoints at hull edge slopes, so its minimum is
+    at one of them.  For each upper and lower hull edge slope the supporting
+    vertex on the opposite hull is found by binary search over that hull's
+    monotone edge slopes (rotating calipers, vectorised); O(N log N).
+    """
+    x, h = _check(x, h, 2)
+    if np.all(x == x[0]):
+        raise ValueError("all points have the same x")
+    up, lo = hulls(x, h)
+    xu, hu, xl, hl = x[up], h[up], x[lo], h[lo]
+    su = np.diff(hu) / np.diff(xu)   # decreasing along the upper hull
+    sl = np.diff(hl) / np.diff(xl)   # increasing along the lower hull
+    slopes = np.concatenate([su, sl])
+    if len(slopes) == 0:  # a single distinct x cannot happen here; two points give one edge
+        raise ValueError("cannot fit a line")
+    iu = np.searchsorted(-su, -slopes, side="left")  # vertex maximising h - b x on the upper hull
+    il = np.searchsorted(sl, slopes, side="left")    # vertex minimising h - b x on the lower hull
+    top = hu[iu] - slopes * xu[iu]
+    bottom = hl[il] - slopes * xl[il]
+    k = int(np.argmin(top - bottom))
+    b = float(slopes[k])
+    r = h - b * x
+    return _fit("minimum_zone", x, h, b, (float(r.max()) + float(r.min())) / 2)
