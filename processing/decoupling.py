@@ -136,7 +136,9 @@ def exact_arrays(ch: Channels, setup: Setup) -> tuple[np.ndarray, np.ndarray]:
     wy = wy + relative_to_first(ch.stry_um) * 1e-3
     wz = wz + relative_to_first(ch.strz_um) * 1e-3
     sx, sy, _ = rotate_back(ex[..., :1], ey[..., :1], ez[..., :1], (wx, wy, wz))
-    return sx + px - qx, (sy + py - qy) * 1e3
+    # sx + px, sy + py is the sample point; at the datum it is Q analytically, so subtracting
+    # the computed datum value instead of Q makes the datum exactly 0 despite rounding.
+    return relative_to_first(sx), relative_to_first(sy) * 1e3
 
 
 def _nominal_x(ch: Channels) -> np.ndarray:
