@@ -106,7 +106,7 @@ def hulls(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     their lowest to the lower hull (vertical edges have no slope).
     """
     order = np.lexsort((z, x))
-    xs, zs = x[order], z[order]
+    xs = x[order]
     last = np.r_[xs[1:] != xs[:-1], True]   # highest z of each x
     first = np.r_[True, xs[1:] != xs[:-1]]  # lowest z of each x
     out = []
@@ -147,3 +147,29 @@ def minimum_zone_line(x: np.ndarray, h: np.ndarray) -> LineFit:
     b = float(slopes[k])
     r = h - b * x
     return _fit("minimum_zone", x, h, b, (float(r.max()) + float(r.min())) / 2)
+
+
+def minimum_zone_many(x: np.ndarray, h_rows: np.ndarray, pair_limit: int = 40) -> np.ndarray:
+    """Minimum-zone straightness of every row of ``h_rows`` (shape (m, n)) at the same x.
+
+    For n <= ``pair_limit`` points it evaluates the zone width at every
+    point-pair slope at once (the breakpoints of the convex, piecewise-linear
+    width function include its minimum: exact, vectorised over rows); above
+    that, :func:`minimum_zone_line` row by row.
+    """
+    x = np.asarray(x, dtype=float)
+    h_rows = np.atleast_2d(np.asarray(h_rows, dtype=float))
+    n = len(x)
+    if n > pair_limit:
+        return np.array([minimum_zone_line(x, row).straightness_um for row in h_rows])
+    i, j = np.triu_indices(n, 1)
+    keep = x[j] != x[i]
+    i, j = i[keep], j[keep]
+    out = np.empty(len(h_rows))
+    step = max(1, 4_000_000 // max(1, len(i) * n))
+    for s in range(0, len(h_rows), step):
+        h = h_rows[s:s + step]
+        b = (h[:, j] - h[:, i]) / (x[j] - x[i])                 # (m, pairs)
+        r = h[:, None, :] - b[:, :, None] * x[None, None, :]   # (m, pairs, n)
+        out[s:s + step] = np.min(r.max(axis=2) - r.min(axis=2), axis=1)
+    return out

@@ -29,7 +29,7 @@ Monte Carlo (GUM-S1): the same input distributions (normal; the sensor
 resolution uniform over one display step), seeded, drawn ``trials`` times;
 each trial decouples with the selected method, averages the stations and
 evaluates every reference line, vectorised over trials except the
-minimum-zone line (exact hull per trial).  The straightness uncertainty is the
+minimum-zone line for long profiles (exact hull per trial).  The straightness uncertainty is the
 standard deviation of the trial values; expanded U = k u with k = 2, and the
 probabilistically symmetric 95 % coverage interval is given too.
 """
@@ -46,7 +46,7 @@ import pandas as pd
 from .decoupling import DECOUPLERS, Channels, Setup
 from .geometry import BlockGeometry
 from .passes import StationGroups
-from .reference_lines import minimum_zone_line
+from .reference_lines import minimum_zone_many
 
 K = 2.0
 
@@ -174,7 +174,7 @@ def _lines_vectorised(x: np.ndarray, h: np.ndarray, lines: tuple[str, ...]) -> d
         d = h - b[:, None] * xm
         out["least_squares"] = d.max(axis=1) - d.min(axis=1)
     if "minimum_zone" in lines:
-        out["minimum_zone"] = np.array([minimum_zone_line(x, row).straightness_um for row in h])
+        out["minimum_zone"] = minimum_zone_many(x, h)
     return out
 
 

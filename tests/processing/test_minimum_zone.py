@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from processing import reference_lines
-from processing.reference_lines import endpoint_line, least_squares_line, minimum_zone_line
+from processing.reference_lines import endpoint_line, least_squares_line, minimum_zone_line, minimum_zone_many
 
 X = np.arange(0.0, 1001.0, 100.0)
 Z = np.array([0.0, 2.1, 3.5, 3.0, 4.8, 6.2, 5.1, 6.9, 8.8, 8.1, 10.0])
@@ -95,3 +95,13 @@ def test_never_wider_than_the_other_lines_and_collinear_is_zero() -> None:
     line = minimum_zone_line(X, 0.5 + 0.002 * X)
     assert line.straightness_um == pytest.approx(0.0, abs=1e-12)
     assert line.slope_um_per_mm == pytest.approx(0.002)
+
+
+@pytest.mark.parametrize("n", [2, 7, 25, 45])
+def test_many_rows_match_the_single_line(n: int) -> None:
+    rng = np.random.default_rng(n)
+    x = np.arange(n) * 100.0
+    rows = rng.normal(0, 2, (60, n)) + np.sin(x / 300.0)
+    many = minimum_zone_many(x, rows)
+    for row, value in zip(rows, many, strict=True):
+        assert value == pytest.approx(brute_force_zone(x, row), abs=1e-9)
