@@ -112,7 +112,7 @@ def evaluate_straightness(
     unc = None
     if uncertainty is not None:
         slope = profile_slope(x, h)
-        u = gum_per_station(points, geometry, method, uncertainty, groups, slope)
+        u = gum_per_station(points, geometry, method, uncertainty, groups, slope, x)
         mc = (monte_carlo(points, geometry, method, uncertainty, groups, x, slope, trials=mc_trials,
                           seed=mc_seed, lines=tuple(lines)) if mc_trials > 0 and lines else None)
         unc = Uncertainty(uncertainty, u, mc)

@@ -23,7 +23,9 @@ dh/dez = (xQ - xP), dh/dex = -(zQ - zP), dh/dxQ = -dh/dxP = ez_j,
 dh/dzQ = -dh/dzP = -ex_j.  A position error dx of a point moves it along the
 profile: dh = (local profile slope) dx, with u(dx) = step_mm for the methods
 that use the nominal travel and position_um for ``exact`` (it measures x).
-Yaw, strz and the y coordinates of P and Q enter only at second order.
+The exact method expresses the profile in the datum's block frame, so the
+datum's own pitch reading also tilts it: dh_k/dez_0 gains -x_k (a straight
+line: it cancels in every straightness value).  Yaw, strz and the y coordinates of P and Q enter only at second order.
 
 Monte Carlo (GUM-S1): the same input distributions (normal; the sensor
 resolution uniform over one display step), seeded, drawn ``trials`` times;
@@ -103,13 +105,24 @@ def _weights(groups: StationGroups, datum_weight: float) -> tuple[np.ndarray, np
     return rows, cols, w
 
 
-def _sum_sq(groups: StationGroups, datum_weight: float, c: np.ndarray) -> np.ndarray:
-    """sum_j (w_kj c_j)^2 per output station (duplicate (k, j) entries summed first)."""
+def _sum_sq(groups: StationGroups, datum_weight: float, c: np.ndarray,
+            datum_extra: np.ndarray | None = None) -> np.ndarray:
+    """sum_j (w_kj c_j)^2 per output station (duplicate (k, j) entries summed first).
+
+    ``datum_extra[k]`` is added to the datum point's coefficient for station k.
+    """
     rows, cols, w = _weights(groups, datum_weight)
     n = len(groups.group)
     key = rows * n + cols
+    if datum_extra is not None:
+        rows = np.concatenate([rows, np.arange(len(groups.stations))])
+        cols = np.concatenate([cols, np.zeros(len(groups.stations), dtype=np.intp)])
+        key = rows * n + cols
+        w = np.concatenate([w * c[cols[: len(w)]], datum_extra])
+    else:
+        w = w * c[cols]
     uniq, inv = np.unique(key, return_inverse=True)
-    wc = np.bincount(inv, weights=w * c[cols])
+    wc = np.bincount(inv, weights=w)
     return np.bincount(uniq // n, weights=wc**2, minlength=len(groups.stations))
 
 
@@ -126,8 +139,8 @@ def profile_slope(x_mm: np.ndarray, h_um: np.ndarray) -> np.ndarray:
 
 
 def gum_per_station(points: pd.DataFrame, geometry: BlockGeometry, method: str, inputs: UncertaintyInputs,
-                    groups: StationGroups, slope_um_per_mm: np.ndarray) -> np.ndarray:
-    """Combined standard uncertainty u (um, k = 1) of each output station's height."""
+                    groups: StationGroups, slope_um_per_mm: np.ndarray, x_mm: np.ndarray) -> np.ndarray:
+    """Combined standard uncertainty u (um, k = 1) of each output station's height (at ``x_mm``)."""
     n = len(points)
     xp, _, zp = geometry.mirror_mm
     xq, _, zq = geometry.sensor_mm
@@ -135,7 +148,9 @@ def gum_per_station(points: pd.DataFrame, geometry: BlockGeometry, method: str, 
     ref = 0.0 if method == "patent" else 1.0  # interferometer channels re-referenced to the datum?
     var = _sum_sq(groups, 1.0, ones) * inputs.sensor_um**2
     var += _sum_sq(groups, ref, ones) * inputs.straightness_um**2
-    var += _sum_sq(groups, ref, ones * (xq - xp) * 1e-3) * inputs.angle_urad**2
+    # exact: the datum's own pitch also tilts the datum frame, h_k gains -x_k ez_0
+    tilt = -np.asarray(x_mm, dtype=float) * 1e-3 if method == "exact" else None
+    var += _sum_sq(groups, ref, ones * (xq - xp) * 1e-3, tilt) * inputs.angle_urad**2
     var += _sum_sq(groups, ref, ones * (zq - zp) * 1e-3) * inputs.angle_urad**2
     ez = points["pitch_urad"].to_numpy(dtype=float) * 1e-3  # um per mm of offset
     ex = points["roll_urad"].to_numpy(dtype=float) * 1e-3
