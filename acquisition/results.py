@@ -40,9 +40,9 @@ def plot_profile(result: StraightnessResult, path: Path) -> None:
     expanded-uncertainty band (k = 2) and, when present, the two passes."""
     x = result.profile["x_mm"].to_numpy()
     h = result.profile["height_um"].to_numpy()
-    fig, ax = plt.subplots(figsize=(9, 4.5), dpi=110)
-    if result.uncertainty is not None:
-        band = 2.0 * result.uncertainty.per_station_u_um
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(9, 7), dpi=110, sharex=True, height_ratios=(3, 2))
+    band = 2.0 * result.uncertainty.per_station_u_um if result.uncertainty is not None else None
+    if band is not None:
         ax.fill_between(x, h - band, h + band, color="tab:blue", alpha=0.18, lw=0,
                         label="expanded uncertainty U (k = 2)")
     rp = result.return_pass
@@ -57,11 +57,23 @@ def plot_profile(result: StraightnessResult, path: Path) -> None:
         unc = f" +/- {mc[name]:.3f}" if name in mc else ""
         ax.plot(xx, fit.intercept_um + fit.slope_um_per_mm * xx, style,
                 label=f"{LINE_LABELS.get(name, name)}: straightness {fit.straightness_um:.3f}{unc} um")
-    ax.set_xlabel("x (mm), position of the sensor sample point from the first station")
     ax.set_ylabel("height (um), +Y")
     ax.set_title(f"Guideway base-surface profile ({result.method} decoupling)")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
+    fit = result.lines.get("minimum_zone")
+    if fit is not None:
+        d = fit.deviations_um
+        if band is not None:
+            ax2.fill_between(x, d - band, d + band, color="tab:blue", alpha=0.18, lw=0, label="U (k = 2)")
+        ax2.plot(x, d, "o-", color="black", lw=1.2, ms=4, label="deviation from the minimum-zone line")
+        half = fit.straightness_um / 2
+        ax2.axhline(half, color="tab:green", ls="-.", lw=1)
+        ax2.axhline(-half, color="tab:green", ls="-.", lw=1, label=f"zone: {fit.straightness_um:.3f} um")
+        ax2.legend(fontsize=8)
+    ax2.set_ylabel("deviation (um)")
+    ax2.set_xlabel("x (mm), position of the sensor sample point from the first station")
+    ax2.grid(True, alpha=0.3)
     fig.tight_layout()
     tmp = path.with_name(f".{path.name}.tmp.png")
     fig.savefig(tmp)
