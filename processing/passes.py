@@ -35,11 +35,14 @@ class StationGroups:
 
     stations: np.ndarray
     group: np.ndarray
-    matrix: sparse.csr_matrix
+    counts: np.ndarray  # points per output station
+    matrix: sparse.csr_matrix | None  # None: one point per station, in order (identity)
 
-    @property
-    def counts(self) -> np.ndarray:
-        return np.bincount(self.group, minlength=len(self.stations))
+    def average(self, values: np.ndarray) -> np.ndarray:
+        """Per-station means of per-point ``values`` (last axis = points)."""
+        if self.matrix is None:
+            return values
+        return np.asarray((self.matrix @ np.asarray(values).T).T)
 
 
 def pass_of(points: pd.DataFrame) -> np.ndarray:
@@ -58,7 +61,10 @@ def check_order(points: pd.DataFrame) -> None:
     if len(p) and p[0] != 0:
         raise ValueError("the first point must belong to the forward pass (pass 0): it is the datum")
     fwd = points["station"].to_numpy(dtype=int)[p == 0]
-    if len(np.unique(fwd)) != len(fwd):
+    if np.all(np.diff(fwd) > 0):
+        return
+    fwd = np.sort(fwd)
+    if np.any(fwd[1:] == fwd[:-1]):
         raise ValueError("a station appears twice in the forward pass")
 
 
@@ -66,12 +72,13 @@ def station_groups(points: pd.DataFrame) -> StationGroups:
     """Group the points by station, stations in forward-pass order (return-only ones at the end)."""
     st = points["station"].to_numpy(dtype=int)
     p = pass_of(points)
-    order = list(dict.fromkeys([*st[p == 0].tolist(), *st[p == 1].tolist()]))
-    index = {s: i for i, s in enumerate(order)}
-    group = np.array([index[s] for s in st.tolist()], dtype=np.intp)
+    if not np.any(p) and np.all(np.diff(st) > 0):  # forward pass only, in order: identity
+        return StationGroups(st, np.arange(len(st)), np.ones(len(st), dtype=np.intp), None)
+    order = pd.unique(np.concatenate([st[p == 0], st[p == 1]]))
+    group = pd.Index(order).get_indexer(st).astype(np.intp)
     counts = np.bincount(group, minlength=len(order))
     m = sparse.csr_matrix((1.0 / counts[group], (group, np.arange(len(st)))), shape=(len(order), len(st)))
-    return StationGroups(np.array(order, dtype=int), group, m)
+    return StationGroups(np.asarray(order, dtype=int), group, counts, m)
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 
 @dataclass(frozen=True)
@@ -83,18 +84,49 @@ def _chain(x: np.ndarray, z: np.ndarray, upper: bool) -> np.ndarray:
     return np.asarray(hull, dtype=np.intp)
 
 
+def _prefilter(x: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Indices of the points that can be hull vertices, for strictly increasing x.
+
+    The points maximising (minimising) z - t x for a set of slopes t are upper
+    (lower) hull vertices; the upper hull lies on or above the polyline through
+    such vertices, so a point strictly below it is no upper-hull vertex (and
+    likewise for the lower hull).  Exact; it only saves work.
+    """
+    span = float(x[-1] - x[0])
+    b0 = (z[-1] - z[0]) / span
+    r = z - b0 * x  # a shear: same hull vertices
+    scale = float(np.ptp(r)) / span
+    if scale == 0:
+        return np.array([0, len(x) - 1])
+    t = scale * np.concatenate([-(2.0 ** np.arange(-2, 6)), [0.0], 2.0 ** np.arange(-2, 6)])
+    keep = np.zeros(len(x), dtype=bool)
+    tol = 1e-12 * (float(np.max(np.abs(r))) + 1.0)
+    for sign in (1.0, -1.0):
+        sup = {0, len(x) - 1}
+        sup.update(int(np.argmax(sign * (r - ti * x))) for ti in t)
+        s = np.array(sorted(sup))
+        keep |= sign * (r - np.interp(x, x[s], r[s])) >= -tol
+    return np.flatnonzero(keep)
+
+
 def _candidates(x: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Indices of a subset of points that contains every hull vertex (qhull for large inputs)."""
+    """Indices of a subset of points that contains every hull vertex (for strictly increasing x)."""
     if len(x) <= QHULL_ABOVE:
         return np.arange(len(x))
-    from scipy.spatial import ConvexHull, QhullError
+    sub = _prefilter(x, z)
+    if len(sub) <= QHULL_ABOVE:
+        return sub
+    return sub[_qhull_candidates(x[sub], z[sub])]
 
+
+def _qhull_candidates(x: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """qhull's hull vertices (sorted indices), all points if they are (numerically) collinear."""
     span_x, span_z = np.ptp(x), np.ptp(z)
     if span_z == 0:
         return np.array([0, len(x) - 1])
     pts = np.column_stack([(x - x[0]) / span_x, (z - z.min()) / span_z])  # affine: same hull
     try:
-        return np.sort(ConvexHull(pts).vertices)
+        return np.sort(ConvexHull(pts).vertices)  # type: ignore[no-any-return]
     except QhullError:  # all points (numerically) on one line
         return np.arange(len(x))
 
@@ -105,6 +137,9 @@ def hulls(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Points sharing an x contribute their highest value to the upper hull and
     their lowest to the lower hull (vertical edges have no slope).
     """
+    if np.all(np.diff(x) > 0):  # the usual case: one candidate set serves both hulls
+        sub = _candidates(x, z)
+        return sub[_chain(x[sub], z[sub], True)], sub[_chain(x[sub], z[sub], False)]
     order = np.lexsort((z, x))
     xs = x[order]
     last = np.r_[xs[1:] != xs[:-1], True]   # highest z of each x

@@ -102,8 +102,8 @@ def evaluate_straightness(
     check_order(points)
     per_point = decouple(points, geometry, method)
     groups = station_groups(points)
-    x = groups.matrix @ per_point["x_mm"].to_numpy()
-    h = groups.matrix @ per_point["height_um"].to_numpy()
+    x = groups.average(per_point["x_mm"].to_numpy())
+    h = groups.average(per_point["height_um"].to_numpy())
     profile = pd.DataFrame({"station": groups.stations, "x_mm": x, "height_um": h})
     lines: dict[str, LineFit] = {}
     if len(profile) >= 2:

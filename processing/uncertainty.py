@@ -95,40 +95,33 @@ class UncertaintyInputs:
         return self.position_um if method == "exact" else self.step_mm * 1e3
 
 
-def _weights(groups: StationGroups, datum_weight: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """COO (row, col, weight) of the linear map from point values to output heights."""
-    n_out = len(groups.stations)
-    n = len(groups.group)
-    rows = np.concatenate([groups.group, np.arange(n_out)])
-    cols = np.concatenate([np.arange(n), np.zeros(n_out, dtype=np.intp)])
-    w = np.concatenate([1.0 / groups.counts[groups.group], np.full(n_out, -datum_weight)])
-    return rows, cols, w
+def _datum_coefficient(groups: StationGroups, datum_weight: float, c: np.ndarray,
+                       datum_extra: np.ndarray | None) -> np.ndarray:
+    """Coefficient of the datum point (index 0) in each output station's height."""
+    k0 = groups.group[0]
+    coef = np.full(len(groups.stations), -datum_weight * c[0])
+    coef[k0] += c[0] / groups.counts[k0]  # the datum is also one of its own station's points
+    if datum_extra is not None:
+        coef += datum_extra
+    return coef
 
 
 def _sum_sq(groups: StationGroups, datum_weight: float, c: np.ndarray,
             datum_extra: np.ndarray | None = None) -> np.ndarray:
-    """sum_j (w_kj c_j)^2 per output station (duplicate (k, j) entries summed first).
-
-    ``datum_extra[k]`` is added to the datum point's coefficient for station k.
-    """
-    rows, cols, w = _weights(groups, datum_weight)
-    n = len(groups.group)
-    key = rows * n + cols
-    if datum_extra is not None:
-        rows = np.concatenate([rows, np.arange(len(groups.stations))])
-        cols = np.concatenate([cols, np.zeros(len(groups.stations), dtype=np.intp)])
-        key = rows * n + cols
-        w = np.concatenate([w * c[cols[: len(w)]], datum_extra])
-    else:
-        w = w * c[cols]
-    uniq, inv = np.unique(key, return_inverse=True)
-    wc = np.bincount(inv, weights=w)
-    return np.bincount(uniq // n, weights=wc**2, minlength=len(groups.stations))
+    """sum_j (w_kj c_j)^2 per output station: the station's own points get w = 1/n_k,
+    the datum point its combined coefficient (``datum_extra[k]`` added to it)."""
+    wc = c / groups.counts[groups.group]
+    wc[0] = 0.0
+    own = np.bincount(groups.group, weights=wc**2, minlength=len(groups.stations))
+    return own + _datum_coefficient(groups, datum_weight, c, datum_extra) ** 2
 
 
 def _sum(groups: StationGroups, datum_weight: float, c: np.ndarray) -> np.ndarray:
-    rows, cols, w = _weights(groups, datum_weight)
-    return np.bincount(rows, weights=w * c[cols], minlength=len(groups.stations))
+    """sum_j w_kj c_j per output station."""
+    wc = c / groups.counts[groups.group]
+    wc[0] = 0.0
+    own = np.bincount(groups.group, weights=wc, minlength=len(groups.stations))
+    return own + _datum_coefficient(groups, datum_weight, c, None)
 
 
 def profile_slope(x_mm: np.ndarray, h_um: np.ndarray) -> np.ndarray:
@@ -233,7 +226,6 @@ def monte_carlo(points: pd.DataFrame, geometry: BlockGeometry, method: str, inpu
         _, h = decouple(chp, sp)
         dx = rng.normal(0.0, u.x_um(method) * 1e-3, (m, n))
         dx -= dx[:, :1]
-        h_out = (groups.matrix @ h.T).T + slope_um_per_mm * (groups.matrix @ dx.T).T
-        heights.append(np.asarray(h_out))
+        heights.append(groups.average(h) + slope_um_per_mm * groups.average(dx))
     h_all = np.concatenate(heights)
     return MonteCarloResult(trials, seed, h_all.std(axis=0, ddof=1), _lines_vectorised(x_out, h_all, lines))

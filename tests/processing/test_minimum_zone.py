@@ -74,10 +74,15 @@ def test_hypothesis_against_brute_force(pts: list[tuple[float, float]]) -> None:
     assert fit.straightness_um <= least_squares_line(x, h).straightness_um + 1e-9
 
 
-def test_large_input_uses_the_same_answer_as_the_small_path(monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.mark.parametrize("shape", ["noisy-sine", "parabola", "steps"])
+def test_large_input_uses_the_same_answer_as_the_small_path(shape: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Prefilter + qhull (large inputs) against the plain monotone chain; a parabola
+    puts every point on the hull."""
     rng = np.random.default_rng(4)
     x = np.arange(5000) * 1.0
-    h = 2 * np.sin(x / 300.0) + rng.normal(0, 0.2, x.size) + 1e-3 * x
+    h = {"noisy-sine": 2 * np.sin(x / 300.0) + rng.normal(0, 0.2, x.size) + 1e-3 * x,
+         "parabola": 1e-6 * (x - 1700.0) ** 2,
+         "steps": np.floor(x / 700.0) + rng.integers(0, 2, x.size) * 0.5}[shape]
     big = minimum_zone_line(x, h)
     monkeypatch.setattr(reference_lines, "QHULL_ABOVE", 10**9)
     small = minimum_zone_line(x, h)

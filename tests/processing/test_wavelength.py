@@ -32,3 +32,23 @@ def test_flat_and_short_profiles_give_nothing() -> None:
     x = np.arange(10) * 100.0
     assert dominant_wavelengths(x, 0.01 * x) == []
     assert dominant_wavelengths(x[:3], np.array([0.0, 1.0, 0.0])) == []
+
+
+@pytest.mark.parametrize("n", [10, 37, 200])
+def test_spectrum_is_scipys_periodogram(n: int) -> None:
+    """The rfft shortcut equals scipy.signal.periodogram(boxcar, spectrum) on the LS residual."""
+    from scipy.signal import periodogram
+
+    from processing.reference_lines import least_squares_line
+    from processing.wavelength import spectrum
+
+    rng = np.random.default_rng(n)
+    x = np.arange(n) * 25.0
+    h = rng.normal(0, 1, n) + 0.01 * x
+    f, amp, dx = spectrum(x, h)
+    nfft = round(1.0 / (f[1] * 25.0))  # the FFT length the implementation chose
+    assert nfft >= 64 * n
+    f_ref, p_ref = periodogram(least_squares_line(x, h).deviations_um, fs=1 / 25.0, window="boxcar",
+                               nfft=nfft, detrend=False, scaling="spectrum")
+    np.testing.assert_allclose(f, f_ref)
+    np.testing.assert_allclose(amp, np.sqrt(2 * p_ref), atol=1e-12)
