@@ -25,6 +25,8 @@ def write_straightness_results(results_dir: Path, result: StraightnessResult) ->
     prof = result.profile.copy()
     for name, fit in result.lines.items():
         prof[f"dev_{name}_um"] = fit.deviations_um
+    if result.uncertainty is not None:
+        prof["u_um"] = result.uncertainty.per_station_u_um  # standard uncertainty, k = 1
     tmp = out / ".profile.csv.tmp"
     prof.to_csv(tmp, index=False, float_format="%.6f")
     tmp.replace(out / "profile.csv")
@@ -34,20 +36,44 @@ def write_straightness_results(results_dir: Path, result: StraightnessResult) ->
 
 
 def plot_profile(result: StraightnessResult, path: Path) -> None:
-    """Profile with its reference lines; straightness per line in the legend."""
+    """Profile with its reference lines (straightness per line in the legend), the
+    expanded-uncertainty band (k = 2) and, when present, the two passes."""
     x = result.profile["x_mm"].to_numpy()
     h = result.profile["height_um"].to_numpy()
-    fig, ax = plt.subplots(figsize=(9, 4.5), dpi=110)
-    ax.plot(x, h, "o-", color="black", lw=1.2, ms=4, label="surface profile")
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(9, 7), dpi=110, sharex=True, height_ratios=(3, 2))
+    band = 2.0 * result.uncertainty.per_station_u_um if result.uncertainty is not None else None
+    if band is not None:
+        ax.fill_between(x, h - band, h + band, color="tab:blue", alpha=0.18, lw=0,
+                        label="expanded uncertainty U (k = 2)")
+    rp = result.return_pass
+    if rp is not None:
+        ax.plot(rp.forward["x_mm"], rp.forward["height_um"], ".", color="tab:green", ms=5, label="forward pass")
+        ax.plot(rp.backward["x_mm"], rp.backward["height_um"], "x", color="tab:red", ms=5, label="return pass")
+    label = "surface profile (mean of both passes)" if rp is not None else "surface profile"
+    ax.plot(x, h, "o-", color="black", lw=1.2, ms=4, label=label)
     xx = np.array([x.min(), x.max()]) if len(x) else np.array([0.0, 1.0])
+    mc = result.uncertainty.to_dict().get("straightness", {}) if result.uncertainty is not None else {}
     for (name, fit), style in zip(result.lines.items(), ("--", ":", "-."), strict=False):
+        unc = f" +/- {mc[name]:.3f}" if name in mc else ""
         ax.plot(xx, fit.intercept_um + fit.slope_um_per_mm * xx, style,
-                label=f"{LINE_LABELS.get(name, name)}: straightness {fit.straightness_um:.3f} um")
-    ax.set_xlabel("x (mm), position of the sensor sample point from the first station")
+                label=f"{LINE_LABELS.get(name, name)}: straightness {fit.straightness_um:.3f}{unc} um")
     ax.set_ylabel("height (um), +Y")
     ax.set_title(f"Guideway base-surface profile ({result.method} decoupling)")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
+    fit = result.lines.get("minimum_zone")
+    if fit is not None:
+        d = fit.deviations_um
+        if band is not None:
+            ax2.fill_between(x, d - band, d + band, color="tab:blue", alpha=0.18, lw=0, label="U (k = 2)")
+        ax2.plot(x, d, "o-", color="black", lw=1.2, ms=4, label="deviation from the minimum-zone line")
+        half = fit.straightness_um / 2
+        ax2.axhline(half, color="tab:green", ls="-.", lw=1)
+        ax2.axhline(-half, color="tab:green", ls="-.", lw=1, label=f"zone: {fit.straightness_um:.3f} um")
+        ax2.legend(fontsize=8)
+    ax2.set_ylabel("deviation (um)")
+    ax2.set_xlabel("x (mm), position of the sensor sample point from the first station")
+    ax2.grid(True, alpha=0.3)
     fig.tight_layout()
     tmp = path.with_name(f".{path.name}.tmp.png")
     fig.savefig(tmp)

@@ -29,7 +29,7 @@ OPTIONAL_DEFAULTS: dict[str, float] = {"pass": 0}
 
 PROFILE: tuple[str, ...] = (
     "station",    # station index
-    "x_mm",       # position of the surface sample point relative to the first station
+    "x_mm",       # position of the surface sample point relative to the first station (exact: actual; else nominal)
     "height_um",  # surface height (+Y) at the sample point relative to the first station
 )
 

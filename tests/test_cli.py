@@ -112,3 +112,39 @@ def test_misbehaving_device_one_line_error_and_points_kept(tmp_path: Path, fault
     run = load_run(out)
     assert run.meta["status"] == "aborted" and run.meta["end_reason"]
     assert len(run.points) >= 1 and run.points["station"].tolist() == list(range(len(run.points)))
+
+
+def test_process_json_straightness_keys(demo_run: Path) -> None:
+    res = guideway("process", str(demo_run), "--json", "--no-write", "--method", "patent", "--mc-trials", "300")
+    assert res.returncode == 0, res.stderr
+    obj = json.loads(res.stdout)
+    assert obj["method"] == "patent"
+    assert set(obj["straightness_um"]) == {"endpoint", "least_squares", "minimum_zone"}
+    assert obj["straightness_um"]["minimum_zone"] <= obj["straightness_um"]["least_squares"]
+    unc = obj["uncertainty_um"]
+    assert unc["k"] == 2 and len(unc["per_station"]) == 6
+    assert unc["per_station"][0] > 0  # patent: the datum's interferometer channels are used as recorded
+    assert set(unc["straightness"]) == {"endpoint", "least_squares", "minimum_zone"}
+    assert "300 trials" in unc["straightness_method"]
+    assert obj["wavelength_mm"] is None or obj["wavelength_mm"]["dominant"] > 0
+    assert "return_pass" not in obj
+
+
+def test_process_writes_deviation_and_uncertainty_columns(demo_run: Path) -> None:
+    res = guideway("process", str(demo_run), "--mc-trials", "0")
+    assert res.returncode == 0, res.stderr
+    assert "decoupling: exact" in res.stdout and "minimum zone reference line" in res.stdout
+    header = (demo_run / "results" / "profile.csv").read_text().splitlines()[0].split(",")
+    assert header == ["station", "x_mm", "height_um", "dev_endpoint_um", "dev_least_squares_um",
+                      "dev_minimum_zone_um", "u_um"]
+
+
+def test_bad_mc_trials_is_a_one_line_error(demo_run: Path) -> None:
+    one_line_error(guideway("process", str(demo_run), "--mc-trials", "1"), "--mc-trials")
+
+
+def test_method_choices_are_the_processing_methods() -> None:
+    from processing.decoupling import METHODS
+    from tui.commands.process import METHOD_CHOICES
+
+    assert METHOD_CHOICES == METHODS

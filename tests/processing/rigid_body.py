@@ -37,3 +37,34 @@ def station(pose_r: np.ndarray, pose_t: np.ndarray, p: np.ndarray, e: np.ndarray
     pw = pose_r @ p + pose_t
     lam, hit = beam_hit(pose_r @ e + pose_t, pose_r @ b)
     return pw, lam, hit
+
+
+def euler_zyx(r: np.ndarray) -> tuple[float, float, float]:
+    """(ex, ey, ez) of r = Rz(ez) @ Ry(ey) @ Rx(ex)."""
+    return math.atan2(r[2, 1], r[2, 2]), -math.asin(r[2, 0]), math.atan2(r[1, 0], r[0, 0])
+
+
+def simulate(poses: list, p: np.ndarray, e: np.ndarray, b: np.ndarray, sign: str, step_mm: float = 100.0):
+    """Record a run for block poses (ex, ey, ez [rad], tx, ty, tz [mm]) in the world.
+
+    The interferometer is zeroed at the first pose: its channels are P's
+    displacement and the block's rotation, both in the first pose's block
+    frame.  Returns (rows as dicts, truth [n, 3] = sample points in that frame
+    relative to the first sample point (mm), Q = first sample point in the
+    block frame).
+    """
+    r0 = rot(*poses[0][:3])
+    t0 = np.array(poses[0][3:])
+    p0w, lam0, hit0 = station(r0, t0, p, e, b)
+    rows, truth = [], []
+    for k, (ex, ey, ez, tx, ty, tz) in enumerate(poses):
+        r, t = rot(ex, ey, ez), np.array([tx, ty, tz])
+        pw, lam, hit = station(r, t, p, e, b)
+        d = r0.T @ (pw - p0w)
+        ex_rel, ey_rel, ez_rel = euler_zyx(r0.T @ r)
+        reading = (lam0 - lam) if sign == "height" else (lam - lam0)  # mm, plus the device's own zero
+        rows.append({"station": k, "x_mm": step_mm * k, "lin_um": (d[0] - step_mm * k) * 1e3,
+                     "stry_um": d[1] * 1e3, "strz_um": d[2] * 1e3, "pitch_urad": ez_rel * 1e6,
+                     "yaw_urad": ey_rel * 1e6, "roll_urad": ex_rel * 1e6, "sensor_mm": reading + 0.3})
+        truth.append(r0.T @ (hit - hit0))
+    return rows, np.array(truth), e + lam0 * b

@@ -3,8 +3,6 @@ the test, and the mapping of the patent's eq. 17 onto our conventions."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pandas as pd
 import pytest
@@ -12,38 +10,17 @@ import pytest
 from processing.decoupling import decouple_first_order
 from processing.geometry import BlockGeometry
 
-from .rigid_body import rot, station
+from . import rigid_body
 
 P = np.array([50.0, 110.0, 5.0])       # mirror point, block frame (mm)
 E = np.array([150.0, 30.0, 40.0])      # sensor head, block frame (mm)
 B = np.array([0.0, -1.0, 0.0])          # beam direction
 
 
-def simulate(poses: list[tuple[float, float, float, float, float, float]], sign: str):
-    """points DataFrame, true heights and Q for poses (ex, ey, ez [rad], tx, ty, tz [mm]).
-
-    The datum (first pose) defines the interferometer frame: channels are the
-    displacement of P and the rotation of the block relative to it.
-    """
-    r0 = rot(*poses[0][:3])
-    t0 = np.array(poses[0][3:])
-    rows, truth = [], []
-    p0w, lam0, hit0 = station(r0, t0, P, E, B)
-    q_block = E + lam0 * B  # where the beam meets the surface at the first station
-    for k, (ex, ey, ez, tx, ty, tz) in enumerate(poses):
-        r, t = rot(ex, ey, ez), np.array([tx, ty, tz])
-        pw, lam, hit = station(r, t, P, E, B)
-        d = r0.T @ (pw - p0w)
-        rel = r0.T @ r
-        ey_rel = -math.asin(rel[2, 0])
-        ex_rel = math.atan2(rel[2, 1], rel[2, 2])
-        ez_rel = math.atan2(rel[1, 0], rel[0, 0])
-        reading = (lam0 - lam) if sign == "height" else (lam - lam0)  # mm, device's own zero
-        rows.append({"station": k, "x_mm": 100.0 * k, "lin_um": (d[0] - 100.0 * k) * 1e3,
-                     "stry_um": d[1] * 1e3, "strz_um": d[2] * 1e3, "pitch_urad": ez_rel * 1e6,
-                     "yaw_urad": ey_rel * 1e6, "roll_urad": ex_rel * 1e6, "sensor_mm": reading + 0.3})
-        truth.append((r0.T @ (hit - hit0))[1] * 1e3)
-    return pd.DataFrame(rows), np.array(truth), q_block
+def simulate(poses: list, sign: str):
+    """points DataFrame, true heights (um) and Q for poses (ex, ey, ez [rad], tx, ty, tz [mm])."""
+    rows, truth, q = rigid_body.simulate(poses, P, E, B, sign)
+    return pd.DataFrame(rows), truth[:, 1] * 1e3, q
 
 
 def random_poses(rng: np.random.Generator, n: int, angle: float) -> list:

@@ -11,7 +11,7 @@ from pathlib import Path
 def run(args: argparse.Namespace) -> int:
     from acquisition.evaluate import process_run_dir
 
-    run_, result = process_run_dir(args.run_dir)
+    run_, result = process_run_dir(args.run_dir, **straightness_options(args))
     for w in run_.warnings:
         print(f"guideway: warning: {w}", file=sys.stderr)
     if run_.meta.get("status") != "complete":
@@ -29,9 +29,31 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+METHOD_CHOICES = ("exact", "first-order", "patent")
+
+
+def straightness_options(args: argparse.Namespace) -> dict[str, object]:
+    """Evaluator options given on the command line (only those set, so other run kinds are unaffected)."""
+    opts: dict[str, object] = {}
+    if args.method is not None:
+        opts["method"] = args.method
+    if args.mc_trials is not None:
+        if args.mc_trials < 0 or args.mc_trials == 1:
+            from acquisition.errors import UserError
+
+            raise UserError(f"--mc-trials must be 0 (off) or at least 2, got {args.mc_trials}")
+        opts["mc_trials"] = args.mc_trials
+    return opts
+
+
 def register(sub) -> None:  # noqa: ANN001
     pr = sub.add_parser("process", help="evaluate a saved run and write its results")
     pr.add_argument("run_dir", type=Path)
     pr.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     pr.add_argument("--no-write", action="store_true", help="do not write results/")
+    # literal (not imported) so `guideway --help` loads no numpy; tests/test_cli.py checks it
+    pr.add_argument("--method", choices=METHOD_CHOICES, default=None,
+                    help="straightness decoupling method (default: exact; see docs/conventions.md)")
+    pr.add_argument("--mc-trials", type=int, default=None, metavar="N",
+                    help="Monte Carlo trials for the straightness uncertainty (default 10000; 0 = off)")
     pr.set_defaults(func=run)

@@ -1,0 +1,231 @@
+"""Measurement uncertainty of a straightness profile (GUM and GUM Supplement 1).
+
+Inputs: the standard uncertainties (k = 1) of ``setup.uncertainty`` in run.json
+(docs/run-format.md), :class:`UncertaintyInputs`.
+
+Model.  Every output station's height is the mean over that station's points
+of the point's decoupled height, and every point's height is its own channels
+minus the datum point's (the first forward point).  So with weights w_kj
+(1/n_k on the points of station k, -1 added on the datum point; the patent
+method does not re-reference the interferometer channels, so for it the datum
+weight of those is 0):
+
+* independent per-point errors (sensor noise and resolution, interferometer
+  straightness and angle noise, block placement along X):
+  u^2 = sum_j w_kj^2 c_j^2 u^2;
+* errors common to the whole run (each coordinate of P and Q):
+  u^2 = (sum_j w_kj c_j)^2 u^2.
+
+Sensitivity coefficients c are those of the first-order formula
+h = stry + s + (xQ - xP) ez - (zQ - zP) ex, which are the exact method's to first
+order (its own differ by terms of order angle x c): dh/dstry = 1, dh/ds = 1,
+dh/dez = (xQ - xP), dh/dex = -(zQ - zP), dh/dxQ = -dh/dxP = ez_j,
+dh/dzQ = -dh/dzP = -ex_j.  A position error dx of a point moves it along the
+profile: dh = (local profile slope) dx, with u(dx) = step_mm for the methods
+that use the nominal travel and position_um for ``exact`` (it measures x).
+The exact method expresses the profile in the datum's block frame, so the
+datum's own pitch reading also tilts it: dh_k/dez_0 gains -x_k (a straight
+line: it cancels in every straightness value).  Yaw, strz and the y coordinates of P and Q enter only at second order.
+
+Monte Carlo (GUM-S1): the same input distributions (normal; the sensor
+resolution uniform over one display step), seeded, drawn ``trials`` times;
+each trial decouples with the selected method, averages the stations and
+evaluates every reference line, vectorised over trials except the
+minimum-zone line for long profiles (exact hull per trial).  The straightness uncertainty is the
+standard deviation of the trial values; expanded U = k u with k = 2, and the
+probabilistically symmetric 95 % coverage interval is given too.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from .decoupling import DECOUPLERS, Channels, Setup
+from .geometry import BlockGeometry
+from .passes import StationGroups
+from .reference_lines import minimum_zone_many
+
+K = 2.0
+
+
+@dataclass(frozen=True)
+class UncertaintyInputs:
+    """Standard uncertainties (k = 1) of the inputs; defaults as in docs/run-format.md."""
+
+    sensor_noise_um: float = 0.05
+    sensor_resolution_um: float = 0.01
+    straightness_um: float = 0.1
+    angle_urad: float = 0.2
+    position_um: float = 0.5
+    offset_mm: float = 0.5
+    step_mm: float = 0.05
+
+    @staticmethod
+    def from_dict(d: dict[str, Any] | None) -> UncertaintyInputs:
+        """From run.json's ``setup.uncertainty`` (absent keys take the defaults)."""
+        d = d or {}
+        if not isinstance(d, dict):
+            raise ValueError("setup.uncertainty must be an object")
+        known = {f.name for f in fields(UncertaintyInputs)}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise ValueError(f"setup.uncertainty: unknown key(s) {', '.join(unknown)} "
+                             f"(known: {', '.join(sorted(known))})")
+        vals = {}
+        for k, v in d.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise ValueError(f"setup.uncertainty.{k} must be a non-negative number, got {v!r}")
+            vals[k] = float(v)
+        return UncertaintyInputs(**vals)
+
+    def to_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+    @property
+    def sensor_um(self) -> float:
+        """One averaged reading: noise and the display step (uniform, step/sqrt(12))."""
+        return math.hypot(self.sensor_noise_um, self.sensor_resolution_um / math.sqrt(12.0))
+
+    def x_um(self, method: str) -> float:
+        return self.position_um if method == "exact" else self.step_mm * 1e3
+
+
+def _datum_coefficient(groups: StationGroups, datum_weight: float, c: np.ndarray,
+                       datum_extra: np.ndarray | None) -> np.ndarray:
+    """Coefficient of the datum point (index 0) in each output station's height."""
+    k0 = groups.group[0]
+    coef = np.full(len(groups.stations), -datum_weight * c[0])
+    coef[k0] += c[0] / groups.counts[k0]  # the datum is also one of its own station's points
+    if datum_extra is not None:
+        coef += datum_extra
+    return coef
+
+
+def _sum_sq(groups: StationGroups, datum_weight: float, c: np.ndarray,
+            datum_extra: np.ndarray | None = None) -> np.ndarray:
+    """sum_j (w_kj c_j)^2 per output station: the station's own points get w = 1/n_k,
+    the datum point its combined coefficient (``datum_extra[k]`` added to it)."""
+    wc = c / groups.counts[groups.group]
+    wc[0] = 0.0
+    own = np.bincount(groups.group, weights=wc**2, minlength=len(groups.stations))
+    return own + _datum_coefficient(groups, datum_weight, c, datum_extra) ** 2
+
+
+def _sum(groups: StationGroups, datum_weight: float, c: np.ndarray) -> np.ndarray:
+    """sum_j w_kj c_j per output station."""
+    wc = c / groups.counts[groups.group]
+    wc[0] = 0.0
+    own = np.bincount(groups.group, weights=wc, minlength=len(groups.stations))
+    return own + _datum_coefficient(groups, datum_weight, c, None)
+
+
+def profile_slope(x_mm: np.ndarray, h_um: np.ndarray) -> np.ndarray:
+    """Local slope dh/dx (um/mm) of the profile (central differences, one-sided at the ends)."""
+    if len(x_mm) < 2:
+        return np.zeros(len(x_mm))
+    return np.gradient(h_um, x_mm)
+
+
+def gum_per_station(points: pd.DataFrame, geometry: BlockGeometry, method: str, inputs: UncertaintyInputs,
+                    groups: StationGroups, slope_um_per_mm: np.ndarray, x_mm: np.ndarray) -> np.ndarray:
+    """Combined standard uncertainty u (um, k = 1) of each output station's height (at ``x_mm``)."""
+    n = len(points)
+    xp, _, zp = geometry.mirror_mm
+    xq, _, zq = geometry.sensor_mm
+    ones = np.ones(n)
+    ref = 0.0 if method == "patent" else 1.0  # interferometer channels re-referenced to the datum?
+    var = _sum_sq(groups, 1.0, ones) * inputs.sensor_um**2
+    var += _sum_sq(groups, ref, ones) * inputs.straightness_um**2
+    # exact: the datum's own pitch also tilts the datum frame, h_k gains -x_k ez_0
+    tilt = -np.asarray(x_mm, dtype=float) * 1e-3 if method == "exact" else None
+    var += _sum_sq(groups, ref, ones * (xq - xp) * 1e-3, tilt) * inputs.angle_urad**2
+    var += _sum_sq(groups, ref, ones * (zq - zp) * 1e-3) * inputs.angle_urad**2
+    ez = points["pitch_urad"].to_numpy(dtype=float) * 1e-3  # um per mm of offset
+    ex = points["roll_urad"].to_numpy(dtype=float) * 1e-3
+    var += 2 * _sum(groups, ref, ez) ** 2 * inputs.offset_mm**2  # xQ and xP
+    var += 2 * _sum(groups, ref, ex) ** 2 * inputs.offset_mm**2  # zQ and zP
+    var += slope_um_per_mm**2 * _sum_sq(groups, 1.0, ones) * (inputs.x_um(method) * 1e-3) ** 2
+    return np.sqrt(var)
+
+
+@dataclass(frozen=True)
+class MonteCarloResult:
+    trials: int
+    seed: int
+    per_station_std_um: np.ndarray
+    straightness_um: dict[str, np.ndarray]  # trial values per reference line
+
+    def summary(self) -> dict[str, dict[str, float]]:
+        out = {}
+        for name, v in self.straightness_um.items():
+            lo, hi = np.percentile(v, [2.5, 97.5])
+            out[name] = {"mean": float(v.mean()), "u": float(v.std(ddof=1)), "U": float(K * v.std(ddof=1)),
+                         "interval_95": [float(lo), float(hi)]}
+        return out
+
+
+def _lines_vectorised(x: np.ndarray, h: np.ndarray, lines: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """Straightness per trial (rows of h) for each reference line."""
+    out: dict[str, np.ndarray] = {}
+    if "endpoint" in lines:
+        b = (h[:, -1] - h[:, 0]) / (x[-1] - x[0])
+        d = h - (h[:, :1] + b[:, None] * (x - x[0]))
+        out["endpoint"] = d.max(axis=1) - d.min(axis=1)
+    if "least_squares" in lines:
+        xm = x - x.mean()
+        b = (h @ xm) / (xm @ xm)
+        d = h - b[:, None] * xm
+        out["least_squares"] = d.max(axis=1) - d.min(axis=1)
+    if "minimum_zone" in lines:
+        out["minimum_zone"] = minimum_zone_many(x, h)
+    return out
+
+
+def monte_carlo(points: pd.DataFrame, geometry: BlockGeometry, method: str, inputs: UncertaintyInputs,
+                groups: StationGroups, x_out: np.ndarray, slope_um_per_mm: np.ndarray, *,
+                trials: int = 10_000, seed: int = 0,
+                lines: tuple[str, ...] = ("endpoint", "least_squares", "minimum_zone"),
+                chunk_elements: int = 2_000_000) -> MonteCarloResult:
+    """Seeded Monte Carlo propagation (GUM-S1) through the selected decoupling method."""
+    if trials < 2:
+        raise ValueError("Monte Carlo needs at least 2 trials")
+    rng = np.random.default_rng(seed)
+    ch = Channels.from_points(points)
+    n = len(points)
+    setup = Setup.from_geometry(geometry)
+    decouple = DECOUPLERS[method]
+    u = inputs
+    heights = []
+    m_chunk = max(1, chunk_elements // max(n, 1))
+    done = 0
+    while done < trials:
+        m = min(m_chunk, trials - done)
+        done += m
+
+        def noisy(a: np.ndarray, sigma: float, scale: float = 1.0, m: int = m) -> np.ndarray:
+            return a + rng.normal(0.0, sigma, (m, n)) * scale if sigma else np.broadcast_to(a, (m, n))
+
+        sensor = noisy(ch.sensor_mm, u.sensor_noise_um, 1e-3)
+        if u.sensor_resolution_um:
+            sensor = sensor + rng.uniform(-0.5, 0.5, (m, n)) * u.sensor_resolution_um * 1e-3
+        chp = Channels(x_mm=ch.x_mm, lin_um=ch.lin_um, stry_um=noisy(ch.stry_um, u.straightness_um),
+                       strz_um=noisy(ch.strz_um, u.straightness_um),
+                       pitch_urad=noisy(ch.pitch_urad, u.angle_urad), yaw_urad=noisy(ch.yaw_urad, u.angle_urad),
+                       roll_urad=noisy(ch.roll_urad, u.angle_urad), sensor_mm=sensor)
+
+        def offset(v: float, m: int = m) -> np.ndarray:
+            return v + rng.normal(0.0, u.offset_mm, (m, 1))
+
+        sp = Setup(tuple(offset(v) for v in setup.mirror), tuple(offset(v) for v in setup.sensor),  # type: ignore[arg-type]
+                   setup.beam, setup.sign)
+        _, h = decouple(chp, sp)
+        dx = rng.normal(0.0, u.x_um(method) * 1e-3, (m, n))
+        dx -= dx[:, :1]
+        heights.append(groups.average(h) + slope_um_per_mm * groups.average(dx))
+    h_all = np.concatenate(heights)
+    return MonteCarloResult(trials, seed, h_all.std(axis=0, ddof=1), _lines_vectorised(x_out, h_all, lines))
