@@ -54,8 +54,9 @@ class SerialLink:
         remaining = deadline - time.monotonic()
         if remaining <= 0:
             return b""
-        self._port.timeout = remaining
         try:
+            # Setting the timeout re-configures a real port (tcsetattr): a hung-up one fails here.
+            self._port.timeout = remaining
             waiting = self._port.in_waiting
             chunk = self._port.read(max(1, waiting))
         except (serial.SerialException, OSError) as exc:
