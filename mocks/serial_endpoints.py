@@ -20,6 +20,7 @@ import socket
 import threading
 import time
 import tty
+from collections.abc import Callable
 from pathlib import Path
 from typing import Protocol
 
@@ -55,14 +56,16 @@ class _Endpoint:
         self.bits_per_char = bits_per_char
         self.faults = faults
         self.device = device
-        self.link_drops = 0  # how often a ``close`` fault dropped the link
+        self.link_drops = 0  # ``close`` faults carried out (counted once the link is ready again)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._lock = threading.Lock()
 
-    def _answer(self, data: bytes) -> bytes | None:
-        """The emulator's reply, delivered at line speed; ``None`` = drop the link instead."""
-        t_in = time.monotonic()
+    def _answer(self, data: bytes, t_in: float, send: Callable[[bytes], None]) -> bool:
+        """Pass ``data`` (seen at ``t_in``) to the emulator and send its reply at line speed.
+
+        Returns False when a ``close`` fault says to drop the link instead of answering.
+        """
         with self._lock:
             before = self.faults.requests(self.device) if self.faults else 0
             reply = self.emulator.receive(data)
@@ -70,12 +73,22 @@ class _Endpoint:
                 for n in range(before + 1, self.faults.requests(self.device) + 1):
                     fault = self.faults.fault_for(self.device, n)
                     if fault is not None and fault.kind == "close":
-                        self.link_drops += 1
-                        return None
-        if reply and self.baudrate:
-            # The request's last byte arrives after its wire time; the reply takes its own.
-            sleep_until(t_in + wire_time_s(len(data) + len(reply), self.baudrate, self.bits_per_char))
-        return reply
+                        return False
+        if not reply:
+            return True
+        if not self.baudrate:
+            send(reply)
+            return True
+        # The request's last byte arrives after its wire time, the reply takes its own and
+        # its bytes arrive one after the other: all but the last are there one character
+        # before the end (the reader may start on them), the last one exactly at the end.
+        due = t_in + wire_time_s(len(data) + len(reply), self.baudrate, self.bits_per_char)
+        if len(reply) > 1:
+            sleep_until(due - wire_time_s(1, self.baudrate, self.bits_per_char))
+            send(reply[:-1])
+        sleep_until(due)
+        send(reply[-1:])
+        return True
 
     def start(self) -> None:
         self._thread = threading.Thread(target=self._run, name=type(self).__name__, daemon=True)
@@ -127,6 +140,7 @@ class PtyEndpoint(_Endpoint):
             ready, _, _ = select.select([self._master], [], [], 0.05)
             if not ready:
                 continue
+            t_in = time.monotonic()
             try:
                 data = os.read(self._master, 4096)
             except OSError:  # EIO while no process has the slave open: keep serving
@@ -134,14 +148,15 @@ class PtyEndpoint(_Endpoint):
                 continue
             if not data:
                 continue
-            reply = self._answer(data)
-            if reply is None:
+            if not self._answer(data, t_in, self._send):
                 # Unplugged: closing the master hangs the driver's side up; then "re-enumerate".
                 self._close_pair()
                 self._open_pair()
-            elif reply:
-                with contextlib.suppress(OSError):
-                    os.write(self._master, reply)
+                self.link_drops += 1
+
+    def _send(self, data: bytes) -> None:
+        with contextlib.suppress(OSError):  # the driver may have closed its side meanwhile
+            os.write(self._master, data)
 
     def write_unsolicited(self, data: bytes) -> None:
         """Send bytes the device emits on its own (streaming, garbage injection)."""
@@ -173,6 +188,7 @@ class TcpEndpoint(_Endpoint):
                 conn, _ = self._sock.accept()
             except (TimeoutError, OSError):
                 continue
+            dropped = False
             with conn:
                 conn.settimeout(0.05)
                 while not self._stop.is_set():
@@ -184,14 +200,14 @@ class TcpEndpoint(_Endpoint):
                         break
                     if not data:
                         break
-                    reply = self._answer(data)
-                    if reply is None:  # close fault: hang up, keep listening
-                        break
-                    if reply:
-                        try:
-                            conn.sendall(reply)
-                        except OSError:
+                    try:
+                        if not self._answer(data, time.monotonic(), conn.sendall):
+                            dropped = True  # close fault: hang up, keep listening
                             break
+                    except OSError:
+                        break
+            if dropped:
+                self.link_drops += 1
 
     def stop(self) -> None:
         super().stop()

@@ -14,6 +14,8 @@ from mocks.faults import KINDS, Fault, FaultPlan, FaultSpecError
 from mocks.keyence_lkg import KeyenceLKGEmulator
 from mocks.serial_endpoints import PtyEndpoint, TcpEndpoint
 
+from ..waiting import wait_for
+
 
 def test_spec_parses_every_part() -> None:
     plan = FaultPlan.parse("sensor:close@3x2, controller:delay@5=0.5,sensor:garbage@10")
@@ -59,17 +61,16 @@ def test_close_over_pty_hangs_up_then_the_port_can_be_reopened(tmp_path: Path) -
     plan = FaultPlan.parse("sensor:close@2x1")
     link = tmp_path / "ttyGW"
     endpoint = PtyEndpoint(_emulator(plan), faults=plan, link=link)
-    first_path = endpoint.path
-    assert link.resolve() == Path(first_path)
+    assert link.resolve() == Path(endpoint.path)
     dev = KeyenceLKG.from_url(str(link))
     try:
         assert dev.read_once().value_mm == 0.5
         with pytest.raises(ConnectionLost):
             dev.read_once()  # request 2: the device drops the link instead of answering
-        assert endpoint.link_drops == 1
         dev.close()
         # A fresh pty pair; the stable name follows it, like a re-enumerated USB adapter.
-        assert endpoint.path != first_path and link.resolve() == Path(endpoint.path)
+        wait_for(lambda: endpoint.link_drops == 1, timeout_s=10, what="the pty to be re-opened")
+        assert link.resolve() == Path(endpoint.path)
         dev = KeyenceLKG.from_url(str(link))
         assert dev.read_once().value_mm == 0.5  # request 3: after COUNT the device answers again
     finally:
@@ -86,9 +87,10 @@ def test_close_over_tcp_drops_the_connection_and_keeps_listening() -> None:
         with pytest.raises(ConnectionLost):
             dev.read_once()
         dev.close()
+        wait_for(lambda: endpoint.link_drops == 1, timeout_s=10, what="the connection to be dropped")
         dev = KeyenceLKG.from_url(endpoint.url)
         assert dev.read_once().value_mm == 0.5
-        assert endpoint.link_drops == 1 and plan.requests("sensor") == 2
+        assert plan.requests("sensor") == 2
     finally:
         dev.close()
         endpoint.stop()
