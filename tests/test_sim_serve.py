@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import queue
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -125,3 +126,9 @@ def test_serve_modbus_rtu_framing() -> None:
 )
 def test_bad_arguments_one_line_exit_2(args: tuple[str, ...], fragment: str) -> None:
     one_line_error(guideway("sim", "serve", *args), fragment)
+
+
+def test_modbus_port_in_use_one_line_exit_2() -> None:
+    with socket.create_server(("127.0.0.1", 0)) as busy:
+        port = busy.getsockname()[1]
+        one_line_error(guideway("sim", "serve", "--modbus-port", str(port)), f"port {port}", "--modbus-port")
