@@ -22,6 +22,6 @@ def test_registered_emulator_answers_its_driver(protocol: str) -> None:
             dev.close()
     finally:
         rig.close()
-    world = rig.world  # noise off: the reading is the world's height value in mm
+    world = rig.world  # noise off: the reading is the world's height value in mm, within 1 um
     assert reading.ok
-    assert reading.value_mm == pytest.approx(world.block.standoff_mm - world.sensor_distance_mm(), abs=1e-4)
+    assert reading.value_mm == pytest.approx(world.block.standoff_mm - world.sensor_distance_mm(), abs=1e-3)
