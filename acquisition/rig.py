@@ -47,8 +47,11 @@ class Rig:
                 dev.close()
 
 
-def open_sensor(protocol: str, url: str, *, baudrate: int = 115200) -> DisplacementSensor:
-    """Open a displacement sensor by protocol name (``keyence-lkg``) and pyserial URL."""
+def open_sensor(protocol: str, url: str, *, baudrate: int | None = 115200) -> DisplacementSensor:
+    """Open a displacement sensor by protocol name (``keyence-lkg``) and pyserial URL.
+
+    ``baudrate`` ``None`` opens the port at the driver's own default rate.
+    """
     try:
         cls = SENSOR_DRIVERS[protocol]
     except KeyError:
@@ -56,6 +59,8 @@ def open_sensor(protocol: str, url: str, *, baudrate: int = 115200) -> Displacem
             f"unknown sensor protocol {protocol!r}; use one of: {', '.join(SENSOR_DRIVERS)}"
         ) from None
     try:
+        if baudrate is None:
+            return cls.from_url(url)  # type: ignore[attr-defined]
         return cls.from_url(url, baudrate=baudrate)  # type: ignore[attr-defined]
     except DriverError as exc:
         raise UserError(f"{exc}; check the port name and that the sensor is connected") from exc
@@ -66,8 +71,16 @@ def open_rig(sensor_protocol: str, sensor_url: str, controller_url: str, *, baud
     """Open both devices; a one-line :class:`UserError` if either is unreachable."""
     sensor = open_sensor(sensor_protocol, sensor_url, baudrate=baudrate)
     try:
-        controller = InterferometerController.from_url(controller_url, word_order=word_order)
-    except (DriverError, ValueError) as exc:
+        controller = open_controller(controller_url, word_order=word_order)
+    except UserError:
         sensor.close()
-        raise UserError(f"{exc}; check the controller address and that it is switched on") from exc
+        raise
     return Rig(sensor, controller)
+
+
+def open_controller(url: str, *, word_order: str = "ABCD") -> InterferometerController:
+    """Connect to the interferometer controller; a one-line :class:`UserError` if unreachable."""
+    try:
+        return InterferometerController.from_url(url, word_order=word_order)
+    except (DriverError, ValueError) as exc:
+        raise UserError(f"{exc}; check the controller address and that it is switched on") from exc

@@ -17,6 +17,14 @@ import serial
 
 from .errors import ConnectionLost, TransportTimeout
 
+try:
+    import termios
+except ImportError:  # Windows: no termios
+    _PORT_ERRORS: tuple[type[BaseException], ...] = (serial.SerialException, OSError)
+else:
+    # pyserial lets termios.error (not an OSError) out of flush()/tcsetattr on a hung-up tty.
+    _PORT_ERRORS = (serial.SerialException, OSError, termios.error)
+
 
 class ByteLink(Protocol):
     """What a driver needs from a transport."""
@@ -53,18 +61,23 @@ class SerialLink:
         try:
             self._port.write(data)
             self._port.flush()
-        except (serial.SerialException, OSError) as exc:
+        except _PORT_ERRORS as exc:
             raise ConnectionLost(f"write to {self._port.name} failed: {exc}") from exc
 
     def _read_some(self, deadline: float) -> bytes:
         remaining = deadline - time.monotonic()
         if remaining <= 0:
             return b""
-        self._port.timeout = remaining
         try:
             waiting = self._port.in_waiting
-            chunk = self._port.read(max(1, waiting))
-        except (serial.SerialException, OSError) as exc:
+            if waiting:  # already there: no wait, so no timeout to re-configure
+                return self._port.read(waiting)
+            # Setting the timeout re-configures a real port (tcsetattr): a hung-up one fails here.
+            self._port.timeout = remaining
+            chunk = self._port.read(1)
+            if chunk and (more := self._port.in_waiting):
+                chunk += self._port.read(more)  # the rest of the burst in the same pass
+        except _PORT_ERRORS as exc:
             raise ConnectionLost(f"read from {self._port.name} failed: {exc}") from exc
         return chunk
 
@@ -124,11 +137,11 @@ class SerialLink:
         self._pending.clear()
         try:
             self._port.reset_input_buffer()
-        except (serial.SerialException, OSError) as exc:
+        except _PORT_ERRORS as exc:
             raise ConnectionLost(f"{self._port.name}: {exc}") from exc
 
     def close(self) -> None:
-        with contextlib.suppress(serial.SerialException, OSError):
+        with contextlib.suppress(*_PORT_ERRORS):
             self._port.close()
 
 

@@ -6,16 +6,38 @@ Spec syntax (CLI ``--faults`` and tests), comma-separated entries::
 
 DEVICE is ``sensor`` or ``controller``; the fault starts at the N-th request
 to that device (1-based) and lasts COUNT requests (default: every request
-from then on).  Kinds:
+from then on).  When several entries cover the same request the first one in
+the spec applies.  Kinds:
 
-* sensor: ``garbage`` (reply replaced by noise bytes), ``drop`` (no reply),
+* sensor (applied by the sensor emulator):
+  ``garbage`` (reply replaced by noise bytes), ``drop`` (no reply),
   ``delay`` (reply ARG seconds late, default 1), ``error`` (device error code
-  ARG, default the protocol's "other error"), ``corrupt`` (bit 7 of one reply
-  byte flipped).
+  ARG, default the protocol's "other error"), ``corrupt`` (the reply is
+  damaged so that the protocol's integrity check fails: a checksummed
+  protocol (BCC, CRC) sends a wrong checksum; a protocol without one, the
+  Keyence ASCII protocol, gets bit 7 of one reply byte flipped).
+* sensor, port level (applied by the endpoint in
+  :mod:`mocks.serial_endpoints`, emulators ignore it): ``close`` - instead of
+  answering request N the device drops the link, like an unplugged USB
+  adapter.  Behind a pty the emulator closes its master side: the driver's
+  next read sees a hang-up (end of file; pyserial raises "device reports
+  readiness to read but returned no data") and writes fail with EIO.  The
+  endpoint then opens a fresh pty pair (a new ``/dev/pts/N``; its stable
+  symlink, when it has one, is re-pointed) - the adapter "re-enumerating".
+  Behind TCP the connection is closed (the driver reads end of file) and the
+  listener keeps accepting.  So a reconnect (re-open the port) works; each of
+  the COUNT faulted requests closes the link again, after them the device
+  answers normally.
 * controller: ``freeze-seq`` (sequence counter stops), ``beam-loss``
   (measurement ends with error 1, beam interrupted), ``exception`` (Modbus
   exception code ARG, default 4 device failure), ``delay`` (reply ARG seconds
   late).
+
+Contract for emulators: call :meth:`FaultPlan.next_request` exactly once per
+request (command line / frame) and act on the sensor kinds above except
+``close``; endpoints look the port-level kinds up with
+:meth:`FaultPlan.fault_for` after the request has been counted.
+See ``docs/faults.md``.
 """
 
 from __future__ import annotations
@@ -24,8 +46,10 @@ import re
 import threading
 from dataclasses import dataclass
 
+# Port-level kinds are carried out by the endpoint, not by the emulator.
+PORT_KINDS = frozenset({"close"})
 KINDS = {
-    "sensor": {"garbage", "drop", "delay", "error", "corrupt"},
+    "sensor": {"garbage", "drop", "delay", "error", "corrupt", "close"},
     "controller": {"freeze-seq", "beam-loss", "exception", "delay", "drop", "corrupt", "close"},
 }
 _SPEC = re.compile(r"^(?P<dev>[a-z]+):(?P<kind>[a-z-]+)@(?P<at>\d+)(?:x(?P<count>\d+))?(?:=(?P<arg>[^,]+))?$")
@@ -81,6 +105,10 @@ class FaultPlan:
         with self._lock:
             n = self._counts.get(device, 0) + 1
             self._counts[device] = n
+        return self.fault_for(device, n)
+
+    def fault_for(self, device: str, n: int) -> Fault | None:
+        """The fault that applies to the ``n``-th request to ``device`` (counts nothing)."""
         for f in self.faults:
             if f.device == device and f.active(n):
                 return f

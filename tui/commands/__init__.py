@@ -16,6 +16,8 @@ COMMAND_MODULES = (
     "import_data",
     "air_index",
     "export",
+    "sim",
+    "devices",
 )
 
 

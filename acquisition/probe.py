@@ -1,0 +1,138 @@
+"""Probe devices: open a sensor and/or the controller, show what they report
+about themselves and a few readings, as text lines.
+
+Used by ``guideway devices probe``.  A device that answers with an error
+reply (LK-G ``ER,...``, a latched controller error) has answered: the error is
+printed as its reading.  A device that does not answer properly (port missing,
+timeout, garbage, dropped link) raises a one-line :class:`UserError`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+from drivers.errors import DeviceError, DriverError
+from drivers.interferometer import InterferometerController
+from drivers.readings import ControllerStatus, DisplacementReading, InterferometerReading
+from drivers.sensor import DisplacementSensor
+
+from .errors import UserError
+from .rig import open_controller, open_sensor
+
+
+def parse_sensor_spec(spec: str) -> tuple[str, str]:
+    """``PROTOCOL:URL`` (``keyence-lkg:/dev/ttyUSB0``) -> (protocol, url)."""
+    protocol, sep, url = spec.partition(":")
+    if not sep or not protocol or not url:
+        raise UserError(f"sensor {spec!r} must be PROTOCOL:URL, e.g. keyence-lkg:/dev/ttyUSB0")
+    return protocol, url
+
+
+def _identity(info: dict[str, str]) -> str:
+    return " ".join(f"{k}={v}" for k, v in info.items()) if info else "(no identity offered)"
+
+
+def status_flags(st: ControllerStatus) -> str:
+    """The set flags of a controller status word, e.g. ``ready data-valid beam-ok``."""
+    names = [("ready", st.ready), ("busy", st.busy), ("data-valid", st.data_valid), ("error", st.error),
+             ("beam-ok", st.beam_ok)]
+    flags = " ".join(n for n, on in names if on) or "none"
+    line = f"status 0x{st.raw_status:04x} [{flags}] sequence {st.sequence}"
+    if st.error or st.error_code:
+        line += f" error {st.error_code}: {st.error_text or 'unknown error'}"
+    return line
+
+
+def format_sensor(r: DisplacementReading) -> str:
+    value = f"{r.value_mm:+.5f} mm" if math.isfinite(r.value_mm) else "no value"
+    return f"{value} {r.status.value} (raw {r.raw.strip()!r})"
+
+
+def format_controller(r: InterferometerReading) -> list[str]:
+    return [
+        status_flags(r.status),
+        f"  position {r.position_mm:.6f} mm  stry {r.stry_um:.3f} um  strz {r.strz_um:.3f} um",
+        f"  pitch {r.pitch_urad:.2f} urad  yaw {r.yaw_urad:.2f} urad  roll {r.roll_urad:.2f} urad",
+        f"  air {r.air_temp_c:.3f} C  pressure {r.air_pressure_hpa:.2f} hPa  "
+        f"humidity {r.humidity_pct:.1f} %RH  material {r.material_temp_c:.3f} C",
+    ]
+
+
+@dataclass
+class Probe:
+    """Open devices under probe; ``name`` prefixes every line about a device."""
+
+    sensor: DisplacementSensor | None
+    controller: InterferometerController | None
+    sensor_name: str = ""
+    controller_name: str = ""
+
+    def _fail(self, name: str, exc: DriverError) -> UserError:
+        return UserError(f"{name} did not answer properly: {exc}")
+
+    def identity_lines(self) -> list[str]:
+        lines = []
+        if self.sensor is not None:
+            try:
+                lines.append(f"{self.sensor_name}: {_identity(self.sensor.identify())}")
+            except DriverError as exc:
+                raise self._fail(self.sensor_name, exc) from exc
+        if self.controller is not None:
+            try:
+                lines.append(f"{self.controller_name}: {_identity(self.controller.identify())}")
+            except DriverError as exc:
+                raise self._fail(self.controller_name, exc) from exc
+        return lines
+
+    def reading_lines(self, index: int) -> list[str]:
+        """One reading of every device, ``#index`` in front."""
+        lines = []
+        if self.sensor is not None:
+            try:
+                text = format_sensor(self.sensor.read_once())
+            except DeviceError as exc:
+                text = f"device error: {exc}"
+            except DriverError as exc:
+                raise self._fail(self.sensor_name, exc) from exc
+            lines.append(f"#{index} sensor: {text}")
+        if self.controller is not None:
+            try:
+                body = format_controller(self.controller.trigger_and_read())
+            except DeviceError as exc:
+                try:
+                    body = [f"device error: {exc}", status_flags(self.controller.read_status())]
+                except DriverError as exc2:
+                    raise self._fail(self.controller_name, exc2) from exc2
+            except DriverError as exc:
+                raise self._fail(self.controller_name, exc) from exc
+            lines.append(f"#{index} controller: {body[0]}")
+            lines += body[1:]
+        return lines
+
+    def close(self) -> None:
+        for dev in (self.sensor, self.controller):
+            if dev is not None:
+                with contextlib.suppress(Exception):  # closing is best effort
+                    dev.close()
+
+
+@contextlib.contextmanager
+def open_probe(sensor: str | None, controller: str | None, *, baudrate: int | None = None) -> Iterator[Probe]:
+    """Open the given devices (``sensor`` as ``PROTOCOL:URL``, ``controller`` as a controller URL)."""
+    if sensor is None and controller is None:
+        raise UserError("nothing to probe; give --sensor PROTOCOL:URL and/or --controller URL")
+    probe = Probe(None, None)
+    try:
+        if sensor is not None:
+            protocol, url = parse_sensor_spec(sensor)
+            probe.sensor = open_sensor(protocol, url, baudrate=baudrate)
+            probe.sensor_name = f"sensor {protocol}:{url}"
+        if controller is not None:
+            probe.controller = open_controller(controller)
+            probe.controller_name = f"controller {controller}"
+        yield probe
+    finally:
+        probe.close()

@@ -1,0 +1,108 @@
+"""``guideway devices probe`` against emulators started here (sensor on a pty,
+controller on Modbus TCP): identity, readings with units and status, device
+errors shown as readings, and one-line exit-2 failures."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from acquisition.simulation import start_simulated_rig
+from tui.cli import main
+
+from ..test_cli import one_line_error
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def probe(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, list[str], str]:
+    code = main(["devices", "probe", *args])
+    out, err = capsys.readouterr()
+    return code, out.splitlines(), err
+
+
+def test_both_devices_identity_and_three_readings(sim_rig, capsys: pytest.CaptureFixture[str]) -> None:
+    sensor = f"{sim_rig.sensor_protocol}:{sim_rig.sensor_url}"
+    code, lines, err = probe(capsys, "--sensor", sensor, "--controller", sim_rig.controller_url)
+    assert code == 0, err
+    assert lines[0] == f"sensor {sensor}: model=Keyence LK-G3000 (RS-232C)"
+    assert lines[1].startswith(f"controller {sim_rig.controller_url}: vendor=guideway-sim")
+    assert "model=SIM-6DOF-IFM" in lines[1]
+    sensor_lines = [ln for ln in lines if " sensor: " in ln]
+    assert [ln.split()[0] for ln in sensor_lines] == ["#1", "#2", "#3"]
+    # noise off: the LK-G reports height = standoff - beam length, 5 decimals, in mm
+    world = sim_rig.world
+    expected_mm = world.block.standoff_mm - world.sensor_distance_mm()
+    value = sensor_lines[0].split()[2]
+    assert sensor_lines[0].split()[3:5] == ["mm", "ok"]
+    assert float(value) == pytest.approx(expected_mm, abs=0.6e-5)
+    i = lines.index(next(ln for ln in lines if ln.startswith("#1 controller:")))
+    assert "[ready data-valid beam-ok]" in lines[i]
+    # the block has not moved since the datum: every error motion reads 0
+    assert lines[i + 1].split() == ["position", "0.000000", "mm", "stry", "0.000", "um", "strz", "0.000", "um"]
+    for word in ("pitch", "yaw", "roll"):
+        assert word in lines[i + 2]
+    env = lines[i + 3].split()
+    assert env[0::3] == ["air", "pressure", "humidity", "material"]
+    assert env[2::3] == ["C", "hPa", "%RH", "C"]
+    assert 15 < float(env[1]) < 25 and 900 < float(env[4]) < 1100
+
+
+def test_controller_error_is_shown_as_a_reading(sim_rig, capsys: pytest.CaptureFixture[str]) -> None:
+    sim_rig.world.beam_blocked = True
+    code, lines, err = probe(capsys, "--controller", sim_rig.controller_url, "--count", "1")
+    assert code == 0, err
+    assert lines[1].startswith("#1 controller: device error: device reported error 1")
+    assert "error" in lines[2] and "beam-ok" not in lines[2]
+
+
+def test_sensor_answering_garbage_exits_2_one_line() -> None:
+    rig = start_simulated_rig(seed=1, noise=False, faults="sensor:garbage@1")
+    try:
+        res = subprocess.run([sys.executable, "-m", "tui.cli", "devices", "probe", "--sensor",
+                              f"keyence-lkg:{rig.sensor_url}"], cwd=ROOT, capture_output=True, text=True,
+                             timeout=60)
+    finally:
+        rig.close()
+    one_line_error(res, f"sensor keyence-lkg:{rig.sensor_url} did not answer properly")
+
+
+def test_sensor_that_hangs_up_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
+    rig = start_simulated_rig(seed=1, noise=False, faults="sensor:close@2")
+    try:
+        code, lines, err = probe(capsys, "--sensor", f"keyence-lkg:{rig.sensor_url}")
+    finally:
+        rig.close()
+    assert code == 2 and lines[1].startswith("#1 sensor:")
+    assert err.count("\n") == 1 and "did not answer properly" in err and "failed" in err
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [((), "nothing to probe"),
+     (("--sensor", "/dev/ttyUSB0"), "must be PROTOCOL:URL"),
+     (("--sensor", "acme-laser:/dev/ttyUSB0"), "unknown sensor protocol 'acme-laser'"),
+     (("--controller", "modbus-tcp://127.0.0.1:1"), "cannot connect to controller"),
+     (("--controller", "http://x"), "must start with modbus-tcp://")],
+)
+def test_bad_or_unreachable_devices_exit_2(capsys: pytest.CaptureFixture[str], args, fragment: str) -> None:
+    code, _, err = probe(capsys, *args)
+    assert code == 2
+    assert err.startswith("guideway: error:") and err.count("\n") == 1 and fragment in err
+
+
+def test_follow_runs_until_ctrl_c(sim_rig) -> None:
+    proc = subprocess.Popen([sys.executable, "-m", "tui.cli", "devices", "probe", "--follow", "--interval", "0.01",
+                             "--sensor", f"keyence-lkg:{sim_rig.sensor_url}"], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    with proc:
+        assert proc.stdout is not None
+        seen = [proc.stdout.readline() for _ in range(6)]  # identity + five readings
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+    assert seen[5].startswith("#5 sensor:")
+    assert proc.returncode == 0 and "Traceback" not in err

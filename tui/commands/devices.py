@@ -1,0 +1,50 @@
+"""``guideway devices probe``: check that real (or simulated) devices answer.
+
+Prints each device's identity, then ``--count`` readings (or readings until
+Ctrl-C with ``--follow``): the sensor's value in mm with its status, every
+controller channel with the environment and the decoded status flags.  Exit 0
+when the devices answered, 2 with a one-line reason when not.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import time
+
+
+def probe(args: argparse.Namespace) -> int:
+    from acquisition.errors import UserError
+    from acquisition.probe import open_probe
+
+    if args.count < 1:
+        raise UserError(f"--count must be at least 1 (got {args.count})")
+    with open_probe(args.sensor, args.controller, baudrate=args.baud) as p:
+        for line in p.identity_lines():
+            print(line, flush=True)
+        indices = itertools.count(1) if args.follow else range(1, args.count + 1)
+        try:
+            for i in indices:
+                print("\n".join(p.reading_lines(i)), flush=True)
+                if args.follow:
+                    time.sleep(args.interval)
+        except KeyboardInterrupt:  # --follow ends here; a normal end, not an error
+            pass
+    return 0
+
+
+def register(sub) -> None:  # noqa: ANN001
+    d = sub.add_parser("devices", help="check the measuring devices")
+    dsub = d.add_subparsers(dest="devices_command", required=True, parser_class=type(d))
+    p = dsub.add_parser("probe", help="show identity and a few readings of the sensor and/or the controller")
+    p.add_argument("--sensor", default=None, metavar="PROTOCOL:URL",
+                   help="displacement sensor, e.g. keyence-lkg:/dev/ttyUSB0 or keyence-lkg:socket://host:port")
+    p.add_argument("--baud", type=int, default=None, metavar="N",
+                   help="sensor baud rate (default: the protocol's usual rate)")
+    p.add_argument("--controller", default=None, metavar="URL",
+                   help="interferometer controller: modbus-tcp://host:port or modbus-rtu:PORT[?baud=..&parity=E]")
+    p.add_argument("--count", type=int, default=3, metavar="N", help="readings to take (default 3)")
+    p.add_argument("--follow", action="store_true", help="keep reading until Ctrl-C")
+    p.add_argument("--interval", type=float, default=0.5, metavar="S",
+                   help="seconds between readings with --follow (default 0.5)")
+    p.set_defaults(func=probe)
