@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import contextlib
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 from drivers.errors import DriverError
@@ -22,6 +23,8 @@ class Rig:
 
     sensor: DisplacementSensor | None
     controller: InterferometerController
+    # Opens fresh connections to the same devices (set by open_rig); None: reconnect just retries.
+    reopen: Callable[[], Rig] | None = field(default=None, repr=False)
 
     def instruments(self) -> dict[str, dict[str, Any]]:
         """run.json ``instruments``: protocol, endpoint, identity of each device."""
@@ -32,6 +35,17 @@ class Rig:
         out["interferometer"] = {"protocol": f"modbus ({self.controller.word_order})",
                                  "endpoint": self.controller.endpoint, **self.controller.identify()}
         return out
+
+    def reconnect(self) -> None:
+        """Close both devices and open them again at the same endpoints (after a fault).
+
+        Raises the same one-line :class:`UserError` as :func:`open_rig` if a device is still unreachable.
+        """
+        if self.reopen is None:
+            return
+        self.close()
+        fresh = self.reopen()
+        self.sensor, self.controller = fresh.sensor, fresh.controller
 
     def close(self) -> None:
         for dev in (self.sensor, self.controller):
@@ -64,4 +78,8 @@ def open_rig(sensor_protocol: str, sensor_url: str, controller_url: str, *, baud
     except (DriverError, ValueError) as exc:
         sensor.close()
         raise UserError(f"{exc}; check the controller address and that it is switched on") from exc
-    return Rig(sensor, controller)
+
+    def reopen() -> Rig:
+        return open_rig(sensor_protocol, sensor_url, controller_url, baudrate=baudrate, word_order=word_order)
+
+    return Rig(sensor, controller, reopen)
