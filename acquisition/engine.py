@@ -191,7 +191,7 @@ class RunEngine:
     def _device_fault(self, exc: Exception) -> None:
         """A device message failed: pause until the operator has fixed it and the rig reconnects."""
         fault = str(exc)
-        self.faults.append(fault)
+        self._note_fault(fault)
         self._transition(RunState.PAUSED, fault)
         while True:
             self.operator.log(Log(f"device fault: {fault}"))
@@ -205,11 +205,17 @@ class RunEngine:
                 self.rig.reconnect()
             except (DriverError, UserError) as again:
                 fault = f"reconnection failed: {again}"
-                self.faults.append(fault)
+                self._note_fault(fault)
                 continue
             self.operator.log(Log("devices reconnected; repeating the step"))
             self._transition(RunState.RUNNING, "device fault cleared")
             return
+
+    def _note_fault(self, fault: str) -> None:
+        """Keep the fault, and put the list in the run's metadata (run.json ``faults``)."""
+        self.faults.append(fault)
+        if self._started:
+            self._emit("annotate", {"uid": self._uid, "key": "faults", "value": list(self.faults)})
 
     # -- execution ---------------------------------------------------------------------------
     def _open_run(self, msg: OpenRun) -> float:

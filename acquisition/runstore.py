@@ -115,6 +115,7 @@ class RunStore:
         self.points_written = 0
         self.loaded_points: list[dict[str, Any]] = []  # the points already on disk (resume)
         self._resuming = False
+        self._prior_faults: list[str] = []
 
     @classmethod
     def for_resume(cls, run_dir: Path | str) -> RunStore:
@@ -136,6 +137,7 @@ class RunStore:
             store._rewrite_points(_complete_lines(run.path / "points.csv"))
         store.points_written = len(run.points)
         store.loaded_points = run.points.to_dict("records")
+        store._prior_faults = list(run.meta.get("faults", []))
         store._resuming = True
         return store
 
@@ -154,12 +156,21 @@ class RunStore:
         elif name == "event":
             self._event(doc)
         elif name == "annotate":
-            self.meta[doc["key"]] = doc["value"]
+            value = doc["value"]
+            if doc["key"] == "faults":  # this session's faults after those of earlier sessions (resume)
+                value = self._prior_faults + list(value)
+            self.meta[doc["key"]] = value
             write_json_atomic(self.run_dir / "run.json", self.meta)
         elif name == "retract":
             self._retract(doc["match"])
         elif name == "stop":
             self._stop(doc)
+
+    def close(self) -> None:
+        """Close the points file without ending the run (the run stays in progress)."""
+        if self._csv is not None:
+            self._csv.close()
+            self._csv = None
 
     def _reopen_csv(self) -> None:
         self._csv = open(self.run_dir / "points.csv", "a", encoding="utf-8", newline="")  # noqa: SIM115

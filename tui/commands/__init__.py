@@ -12,6 +12,7 @@ from importlib import import_module
 # Order = order in ``guideway --help``.
 COMMAND_MODULES = (
     "demo",
+    "acquire",
     "process",
 )
 

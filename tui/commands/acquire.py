@@ -1,0 +1,56 @@
+"""``guideway acquire straightness``: acquire a run from a set-up file.
+
+    guideway acquire straightness --setup SETUP.toml --out RUN_DIR [--simulate] [--auto]
+    guideway acquire straightness --out RUN_DIR --resume [--simulate] [--auto]
+
+The plain-terminal operator asks on stdin/stdout (Enter = capture) unless
+``--auto`` (the simulated technician).  ``--resume`` continues an interrupted
+run in RUN_DIR after its last completed step.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+KINDS = ("straightness",)
+
+
+def run(args: argparse.Namespace) -> int:
+    from acquisition.acquire import SimOptions, run_straightness
+    from acquisition.errors import SetupError, UserError
+    from acquisition.setup import load_straightness_setup
+
+    if args.setup is None and not args.resume:
+        raise SetupError("a new run needs --setup SETUP.toml (see docs/setup-straightness.toml)")
+    setup = load_straightness_setup(args.setup) if args.setup is not None else None
+    sim = SimOptions(args.seed, not args.no_noise, args.faults) if args.simulate else None
+    if args.faults and not args.simulate:
+        raise SetupError("--faults needs --simulate (faults are injected into the simulated devices)")
+    res = run_straightness(setup, args.out, simulate=sim, auto=args.auto, resume=args.resume)
+    status = res.outcome.exit_status
+    if status == "fail":
+        raise UserError(f"run failed ({res.outcome.reason}); the points captured are in {args.out}; "
+                        f"continue with: guideway acquire {args.kind} --out {args.out} --resume")
+    if status == "abort":
+        print(f"guideway: run aborted ({res.outcome.reason}); the points are kept in {args.out}; "
+              f"continue with: guideway acquire {args.kind} --out {args.out} --resume", file=sys.stderr)
+        return 1
+    print(f"process it with: guideway process {args.out}")
+    return 0
+
+
+def register(sub) -> None:  # noqa: ANN001
+    a = sub.add_parser("acquire", help="acquire a run (straightness) from a set-up file, or resume one")
+    a.add_argument("kind", choices=KINDS, help="run kind")
+    a.add_argument("--setup", type=Path, default=None, help="set-up file (TOML); optional with --resume")
+    a.add_argument("--out", type=Path, required=True, help="run directory (new, or the run to resume)")
+    a.add_argument("--simulate", action="store_true", help="simulated devices on real transports")
+    a.add_argument("--auto", action="store_true", help="automatic operator (simulated technician)")
+    a.add_argument("--resume", action="store_true", help="continue the interrupted run in --out")
+    a.add_argument("--seed", type=int, default=0, help="--simulate: seed of the simulated world (default 0)")
+    a.add_argument("--no-noise", action="store_true", help="--simulate: switch the instrument noise off")
+    a.add_argument("--faults", default=None, metavar="SPEC",
+                   help="--simulate: inject device faults (DEVICE:KIND@N[xCOUNT][=ARG]), e.g. sensor:drop@9x1")
+    a.set_defaults(func=run)
