@@ -112,11 +112,8 @@ def run_straightness(
                 if simulate is not None:
                     store.header["simulation"] = simulate.to_dict()
             if operator is None:
-                if auto:
-                    actions = {"place_block": sim.place_block} if sim is not None else {}
-                    operator = AutoOperator(actions, log_to=stream)
-                else:
-                    operator = TerminalOperator(stdin, stream)
+                actions = {"place_block": sim.place_block} if sim is not None else {}
+                operator = AutoOperator(actions, log_to=stream) if auto else TerminalOperator(stdin, stream, actions)
             engine = RunEngine(rig, operator, (store,))
             outcome = engine.run(straightness_plan(setup, {}, resume=rp))
         finally:

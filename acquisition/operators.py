@@ -71,9 +71,12 @@ class TerminalOperator:
     accepts the default (for an instruction: the first choice, e.g. ``capture``); a
     unique prefix selects a choice (``r`` = retry/redo when unambiguous)."""
 
-    def __init__(self, stdin: TextIO = sys.stdin, stdout: TextIO = sys.stdout) -> None:
+    def __init__(self, stdin: TextIO = sys.stdin, stdout: TextIO = sys.stdout,
+                 actions: dict[str, Callable[..., None]] | None = None) -> None:
         self.stdin = stdin
         self.stdout = stdout
+        # Simulated physical actions (``--simulate``): done when the operator confirms an instruction.
+        self.actions = actions or {}
 
     def _ask(self, text: str, choices: tuple[str, ...], default: str | None) -> str:
         default = default or choices[0]
@@ -91,7 +94,11 @@ class TerminalOperator:
             print(f"  please answer one of: {', '.join(choices)}", file=self.stdout)
 
     def instruct(self, msg: Instruct) -> str:
-        return self._ask(msg.text, msg.choices, None)
+        answer = self._ask(msg.text, msg.choices, None)
+        action = self.actions.get(msg.action)
+        if answer == msg.choices[0] and action is not None:
+            action(**msg.params)
+        return answer
 
     def prompt(self, msg: Prompt) -> str:
         return self._ask(msg.text, msg.choices, msg.default)

@@ -185,6 +185,10 @@ def warmup(w: WarmupSetup, samples: int) -> Generator[Message, Any, dict[str, An
     return {"stable": stable, "overridden": overridden, "duration_s": elapsed, "drift": drift}
 
 
+def _sentence(text: str) -> str:
+    return text if text.endswith((".", "?", "!")) else text + "."
+
+
 def _place_text(p: int, k: int, x: float, first_return: bool) -> str:
     if first_return:
         return (f"Return pass: leave the block at station {k} (x = {x:g} mm), against the side face; "
@@ -207,7 +211,7 @@ def _capture(setup: StraightnessSetup, k: int, x: float) -> Generator[Message, A
         yield Log(f"{problem} (attempt {attempt} of {v.capture_attempts})")
         if attempt < v.capture_attempts:
             continue
-        answer = yield Prompt(f"{problem}. Retry the capture, skip this station (recorded), or abort?",
+        answer = yield Prompt(f"{_sentence(problem)} Retry the capture, skip this station (recorded), or abort?",
                               ("retry", "skip", "abort"), default="retry", key="invalid", fault=problem)
         if answer == "skip":
             return None
@@ -281,7 +285,8 @@ def straightness_plan(setup: StraightnessSetup, metadata: dict[str, Any],
         jump = jump_problem(row, points.get(steps[i - 1]) if i > 0 else None, setup.validation)
         if jump is not None:
             redo_default = jump_redos < setup.validation.capture_attempts
-            answer = yield Prompt(f"{jump}. Redo the capture or accept the reading?", ("redo", "accept", "abort"),
+            answer = yield Prompt(f"{_sentence(jump)} Redo the capture or accept the reading?",
+                                  ("redo", "accept", "abort"),
                                   default="redo" if redo_default else "accept", key="jump")
             if answer == "redo":
                 jump_redos += 1
