@@ -32,6 +32,7 @@ class SimOptions:
     seed: int = 0
     noise: bool = True
     faults: str | None = None
+    wire_time: bool = True  # False: zero-latency emulators (benchmarks)
 
     def to_dict(self) -> dict[str, Any]:
         return {"seed": self.seed, "noise": self.noise}
@@ -87,11 +88,12 @@ def run_straightness(
     store, setup, rp = _open_store(setup, out, resume)
     if simulate is not None and resume and "simulation" in store.meta:
         stored = store.meta["simulation"]  # the same simulated world the run started with
-        simulate = SimOptions(int(stored["seed"]), bool(stored["noise"]), simulate.faults)
+        simulate = SimOptions(int(stored["seed"]), bool(stored["noise"]), simulate.faults, simulate.wire_time)
     sim = None
     if simulate is not None:
         sim = start_simulated_rig(seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
-                                  block_length_mm=setup.block_length_mm, geometry=setup.geometry)
+                                  block_length_mm=setup.block_length_mm, geometry=setup.geometry,
+                                  wire_time=simulate.wire_time)
         devices = DeviceSetup(sim.sensor_protocol, sim.sensor_url, 115200, sim.controller_url,
                               setup.devices.word_order)
         print(f"simulated sensor     : {sim.sensor_protocol} on {sim.sensor_url}", file=stream)

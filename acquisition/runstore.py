@@ -19,6 +19,7 @@ import json
 import math
 import os
 import tempfile
+import time
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -116,6 +117,12 @@ class RunStore:
         self.loaded_points: list[dict[str, Any]] = []  # the points already on disk (resume)
         self._resuming = False
         self._prior_faults: list[str] = []
+        self.progress_interval_s = 1.0
+        self._last_meta_write = -math.inf
+
+    def _write_meta(self) -> None:
+        write_json_atomic(self.run_dir / "run.json", self.meta)
+        self._last_meta_write = time.monotonic()
 
     @classmethod
     def for_resume(cls, run_dir: Path | str) -> RunStore:
@@ -160,7 +167,12 @@ class RunStore:
             if doc["key"] == "faults":  # this session's faults after those of earlier sessions (resume)
                 value = self._prior_faults + list(value)
             self.meta[doc["key"]] = value
-            write_json_atomic(self.run_dir / "run.json", self.meta)
+            # progress after a point is already implied by the fsynced point: write it at most
+            # every progress_interval_s (one atomic replace costs two fsyncs)
+            if doc["key"] != "progress" or time.monotonic() - self._last_meta_write >= self.progress_interval_s:
+                self._write_meta()
+        elif name == "state" and doc.get("state") == "paused":
+            self._write_meta()  # a paused run shows its current progress
         elif name == "retract":
             self._retract(doc["match"])
         elif name == "stop":
@@ -215,7 +227,7 @@ class RunStore:
             self.meta.pop("ended", None)
             self.meta.pop("end_reason", None)
             self.meta.setdefault("resumed", []).append({"at": utc_now_iso(), "points": self.points_written})
-            write_json_atomic(self.run_dir / "run.json", self.meta)
+            self._write_meta()
             self._reopen_csv()
             return
         self.prepare()
@@ -231,7 +243,7 @@ class RunStore:
             **self.header,
             "points": 0,
         }
-        write_json_atomic(self.run_dir / "run.json", self.meta)
+        self._write_meta()
         self._csv = open(self.run_dir / "points.csv", "w", encoding="utf-8", newline="")  # noqa: SIM115
         self._csv.write(",".join(self._columns) + "\n")
         self._sync_csv()
@@ -264,7 +276,7 @@ class RunStore:
             end_reason=doc.get("reason", ""),
             points=self.points_written,
         )
-        write_json_atomic(self.run_dir / "run.json", self.meta)
+        self._write_meta()
 
 
 def _complete_lines(path: Path) -> list[str]:

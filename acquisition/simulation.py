@@ -77,12 +77,15 @@ def start_simulated_rig(
     faults: str | None = None,
     block_length_mm: float | None = None,
     geometry: BlockGeometry | None = None,
+    wire_time: bool = True,
 ) -> SimulatedRig:
     """Start the emulators on real transports and return their endpoints.
 
     ``faults`` is a fault-plan spec (see :mod:`mocks.faults`), e.g.
     ``"sensor:garbage@12"``.  ``block_length_mm`` and ``geometry`` build the
     simulated block to match a set-up file (default: :func:`default_block`).
+    ``wire_time=False``: the sensor answers without the serial line's transfer
+    time (zero-latency emulators, for benchmarks).
     """
     try:
         plan = FaultPlan.parse(faults)
@@ -104,7 +107,7 @@ def start_simulated_rig(
         return None if d is None else sign * (block.standoff_mm - d)
 
     pty = PtyEndpoint(KeyenceLKGEmulator(sensor_value, decimals=sensor_decimals, faults=plan),
-                      baudrate=baudrate)
+                      baudrate=baudrate if wire_time else 0)
     try:
         modbus = ModbusServerThread(
             InterferometerEmulator(world, measure_time_s=measure_time_s, faults=plan).device()
