@@ -17,6 +17,7 @@ import struct
 import threading
 import time
 from collections.abc import Callable
+from typing import Any
 
 from pymodbus import FramerType
 from pymodbus.constants import ExcCodes
@@ -61,8 +62,11 @@ class InterferometerEmulator:
         measure_time_s: float = 0.0,
         clock: Callable[[], float] = time.monotonic,
         faults: FaultPlan | None = None,
+        extension: Any = None,
     ) -> None:
         self.world = world
+        # Extra registers (e.g. mocks.machine_axis.InPositionRegisters): simdata() and access().
+        self.extension = extension
         self.faults = faults or FaultPlan()
         self._frozen = False
         self._beam_fault = False
@@ -84,6 +88,7 @@ class InterferometerEmulator:
                 SimData(REG_STATUS, count=3, values=0, datatype=DataType.REGISTERS, readonly=True),
                 SimData(REG_POSITION, count=DATA_END - REG_POSITION, values=0,
                         datatype=DataType.REGISTERS, readonly=True),
+                *(self.extension.simdata() if self.extension is not None else []),
             ],
             action=self.action,
         )
@@ -164,6 +169,8 @@ class InterferometerEmulator:
             result = self._command(int(set_values[0]))
             set_values[0] = 0  # self-clearing command register
         self._sync(start_address, current_registers)
+        if self.extension is not None:
+            self.extension.access(start_address, address, current_registers, set_values)
         return result
 
 
