@@ -81,7 +81,8 @@ def rotary_targets(start_deg: float = 0.0, end_deg: float = 360.0, *, seed: int 
     """
     span = end_deg - start_deg
     if not (math.isfinite(span) and 0 < span <= 360.0):
-        raise SetupError(f"a rotary axis range must satisfy 0 < end_deg - start_deg <= 360, got {start_deg} .. {end_deg}")
+        raise SetupError(f"a rotary axis range must satisfy 0 < end_deg - start_deg <= 360, "
+                         f"got {start_deg} .. {end_deg}")
     full = math.isclose(span, 360.0)
     anchors = sorted({start_deg, end_deg} | {90.0 * k for k in range(math.ceil(start_deg / 90 - 1e-9),
                                                                        math.floor(end_deg / 90 + 1e-9) + 1)})
