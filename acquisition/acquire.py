@@ -15,14 +15,17 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, TextIO
 
+from . import inposition  # noqa: F401 - registers the in-position message handlers
 from .engine import RunEngine, RunOutcome
 from .errors import SetupError, UserError
 from .operators import AutoOperator, Operator, TerminalOperator
+from .plans.positioning import positioning_plan, positioning_resume_point
 from .plans.straightness import ResumePoint, resume_point, straightness_plan
-from .rig import open_rig
+from .positioning_setup import PositioningSetup, positioning_setup_from_dict
+from .rig import open_controller_rig, open_rig
 from .runstore import RunStore
 from .setup import DeviceSetup, StraightnessSetup, straightness_setup_from_run
-from .simulation import SimulatedRig, start_simulated_rig
+from .simulation import SimulatedMachine, SimulatedRig, start_simulated_machine, start_simulated_rig
 
 
 @dataclass(frozen=True)
@@ -126,3 +129,79 @@ def run_straightness(
     print(f"run {outcome.exit_status}: {store.points_written} points in {out}"
           + (f" ({outcome.reason})" if outcome.reason else ""), file=stream)
     return AcquireResult(out, outcome, setup, sim, tuple(engine.faults))
+
+
+@dataclass(frozen=True)
+class PositioningResult:
+    run_dir: Path
+    outcome: RunOutcome
+    setup: PositioningSetup
+    sim: SimulatedMachine | None  # stopped; its axis stays readable (ground truth for tests)
+    faults: tuple[str, ...] = ()
+
+
+def run_positioning(
+    setup: PositioningSetup | None,
+    out: Path | str,
+    *,
+    simulate: SimOptions | None = None,
+    auto: bool = False,
+    resume: bool = False,
+    setup_source: dict[str, Any] | None = None,
+    stream: TextIO = sys.stdout,
+    stdin: TextIO = sys.stdin,
+    operator: Operator | None = None,
+) -> PositioningResult:
+    """Acquire (or resume) an ISO 230-2 positioning run into ``out``.
+
+    ``setup_source`` is the set-up file's TOML structure, kept in run.json so a resume rebuilds
+    exactly the same set-up (targets included).
+    """
+    out = Path(out)
+    rp = None
+    if resume:
+        store = RunStore.for_resume(out)
+        if store.meta.get("kind") != "positioning":
+            raise UserError(f"{out}: a {store.meta.get('kind')} run; resume it with guideway acquire "
+                            f"{store.meta.get('kind')}")
+        if setup is None:
+            if "setup_source" not in store.meta:
+                raise SetupError(f"{out}: run.json holds no setup_source; resume with --setup")
+            setup = positioning_setup_from_dict(store.meta["setup_source"], f"{out}/run.json setup_source")
+        rp = positioning_resume_point(store.meta, store.loaded_points, setup.measured_stops())
+    else:
+        if setup is None:
+            raise SetupError("a new run needs --setup SETUP.toml")
+        store = RunStore(out, {**setup.header(), **({"setup_source": setup_source} if setup_source else {})})
+        store.prepare()
+    if simulate is not None and resume and "simulation" in store.meta:
+        stored = store.meta["simulation"]
+        simulate = SimOptions(int(stored["seed"]), bool(stored["noise"]), simulate.faults)
+    sim = None
+    url = setup.devices.controller_url
+    if simulate is not None:
+        sim = start_simulated_machine(setup, seed=simulate.seed, noise=simulate.noise, faults=simulate.faults)
+        url = sim.controller_url
+        print(f"simulated machine axis {setup.axis_name} ({setup.trigger.mode} trigger) behind {url}", file=stream)
+    elif not url:
+        raise SetupError("[controller] url is missing in the setup; give the controller's address or use --simulate")
+    try:
+        rig = open_controller_rig(url, word_order=setup.devices.word_order)
+        try:
+            if rp is None:
+                store.header["instruments"] = rig.instruments()
+                if simulate is not None:
+                    store.header["simulation"] = simulate.to_dict()
+            if operator is None:
+                actions = {"cycle_start": sim.cycle_start} if sim is not None else {}
+                operator = AutoOperator(actions, log_to=stream) if auto else TerminalOperator(stdin, stream, actions)
+            engine = RunEngine(rig, operator, (store,))
+            outcome = engine.run(positioning_plan(setup, {}, resume=rp))
+        finally:
+            rig.close()
+    finally:
+        if sim is not None:
+            sim.close()
+    print(f"run {outcome.exit_status}: {store.points_written} points in {out}"
+          + (f" ({outcome.reason})" if outcome.reason else ""), file=stream)
+    return PositioningResult(out, outcome, setup, sim, tuple(engine.faults))

@@ -167,6 +167,11 @@ class RunEngine:
         """Ask the running plan to end early (thread-safe); data are kept."""
         self._abort_requested.set()
 
+    @property
+    def abort_requested(self) -> bool:
+        """True once an abort was requested (long-running handlers check it)."""
+        return self._abort_requested.is_set()
+
     def request_pause(self) -> None:
         """Pause at the next message (thread-safe); the operator is then asked to resume or abort."""
         self._pause_requested.set()

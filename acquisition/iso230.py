@@ -26,6 +26,7 @@ from .errors import SetupError
 LONG_AXIS_MM = 2000.0
 LONG_AXIS_INTERVAL_MM = 250.0
 CYCLES = ("linear", "step")
+END_JITTER = 0.02  # largest offset of the first / last target, as a fraction of the interval
 
 
 @dataclass(frozen=True)
@@ -42,12 +43,17 @@ class Stop:
 def _irregular(anchors_lo: float, anchors_hi: float, count: int, rng: np.random.Generator, jitter: float,
                first_free: bool, last_free: bool) -> list[float]:
     """``count`` points spaced p = (hi - lo) / (count - 1) apart, each moved by its own offset
-    r in [-jitter p, +jitter p] (one-sided at a free end so the points stay inside [lo, hi])."""
+    r in [-jitter p, +jitter p]; at a free end r is one-sided and at most END_JITTER p, so the
+    points stay inside [lo, hi] and the end targets stay close to the ends of the travel."""
     p = (anchors_hi - anchors_lo) / (count - 1)
     out = []
     for i in range(count):
         lo = 0.0 if (i == 0 and first_free) else -jitter
         hi = 0.0 if (i == count - 1 and last_free) else jitter
+        if i == 0 and first_free:
+            hi = END_JITTER
+        if i == count - 1 and last_free:
+            lo = -END_JITTER
         out.append(anchors_lo + i * p + float(rng.uniform(lo, hi)) * p)
     return out
 

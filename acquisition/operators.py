@@ -50,11 +50,11 @@ class AutoOperator:
 
     def prompt(self, msg: Prompt) -> str:
         self.transcript.append(msg.text)
-        if msg.fault:
+        if msg.fault:  # the first choice is the one that tries again (retry, wait, acknowledge)
             if self.fault_retries <= 0:
                 return "abort"
             self.fault_retries -= 1
-            return "retry"
+            return msg.choices[0]
         answer = self.answers.get(msg.key)
         if answer in msg.choices:
             return answer

@@ -83,3 +83,12 @@ def open_rig(sensor_protocol: str, sensor_url: str, controller_url: str, *, baud
         return open_rig(sensor_protocol, sensor_url, controller_url, baudrate=baudrate, word_order=word_order)
 
     return Rig(sensor, controller, reopen)
+
+
+def open_controller_rig(controller_url: str, *, word_order: str = "ABCD") -> Rig:
+    """A rig with the interferometer controller only (positioning runs)."""
+    try:
+        controller = InterferometerController.from_url(controller_url, word_order=word_order)
+    except (DriverError, ValueError) as exc:
+        raise UserError(f"{exc}; check the controller address and that it is switched on") from exc
+    return Rig(None, controller, lambda: open_controller_rig(controller_url, word_order=word_order))

@@ -159,7 +159,7 @@ class _Table:
         self.used.add(key)
         if key not in self.data:
             if required or default is ...:
-                raise SetupError(f"{self._where(key)} is missing; add it (see docs/setup-straightness.toml)")
+                raise SetupError(f"{self._where(key)} is missing; add it (see the examples docs/setup-*.toml)")
             return default
         v = self.data[key]
         if kind is float and isinstance(v, int) and not isinstance(v, bool):
@@ -185,7 +185,7 @@ class _Table:
         if extra:
             where = f"[{self.name}]" if self.name else "top level"
             raise SetupError(f"{self.source}: unknown key {extra[0]!r} in {where}; check the spelling "
-                             f"(see docs/setup-straightness.toml)")
+                             "(see the commented examples docs/setup-*.toml)")
 
 
 def _is_number(x: Any) -> bool:

@@ -15,11 +15,13 @@ from typing import Any
 from mocks.faults import FaultPlan, FaultSpecError
 from mocks.interferometer import InterferometerEmulator, ModbusServerThread
 from mocks.keyence_lkg import KeyenceLKGEmulator
+from mocks.machine_axis import AxisErrors, InPositionRegisters, MachineAxis, MachineStop
 from mocks.serial_endpoints import PtyEndpoint
 from mocks.world import BlockSetup, Noise, World
 from processing.geometry import BlockGeometry
 
 from .errors import UserError
+from .positioning_setup import PositioningSetup, SimulatedAxisSetup
 
 
 @dataclass
@@ -116,3 +118,54 @@ def start_simulated_rig(
         pty.stop()
         raise
     return SimulatedRig(world, "keyence-lkg", pty.path, modbus.url, pty, modbus)
+
+
+@dataclass
+class SimulatedMachine:
+    """A simulated machine axis running the set-up's cycle behind a Modbus TCP interferometer controller."""
+
+    axis: MachineAxis
+    controller_url: str
+    _modbus: ModbusServerThread
+
+    def cycle_start(self, **_: Any) -> None:
+        """What the simulated technician does when asked to press Cycle Start."""
+        self.axis.cycle_start()
+
+    def close(self) -> None:
+        self._modbus.stop()
+
+
+HANDSHAKE = {"in-position": "ack", "manual": "cycle-start", "stability": "timed"}
+
+
+def _axis_errors(setup: PositioningSetup, noise: bool) -> AxisErrors:
+    sim = setup.simulation
+    if setup.axis_type == "rotary" and sim == SimulatedAxisSetup():
+        # rotary defaults (arcsec): a once-per-revolution error, a 90-tooth worm's periodic error
+        return AxisErrors(pitch=((4.0, 360.0, 0.7),), slope_per_m=0.0, backlash=2.0, periodic=1.0,
+                          periodic_period=4.0, thermal_per_m_per_h=0.0, noise=0.3 if noise else 0.0)
+    return AxisErrors(pitch=((sim.pitch_amplitude, sim.pitch_wavelength, 0.4),), slope_per_m=sim.slope_per_m,
+                      backlash=sim.backlash, periodic=sim.periodic, periodic_period=sim.periodic_period,
+                      thermal_per_m_per_h=sim.thermal_per_m_per_h, noise=sim.noise if noise else 0.0)
+
+
+def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bool = True,
+                            faults: str | None = None) -> SimulatedMachine:
+    """Start a machine axis that runs exactly the set-up's cycle, read by a Modbus TCP controller.
+
+    The in-position handshake follows the trigger mode: the PLC waits for the tool's acknowledge
+    (in-position), for Cycle Start (manual, M00 at each target) or for the dwell time (stability).
+    """
+    try:
+        plan = FaultPlan.parse(faults)
+    except FaultSpecError as exc:
+        raise UserError(str(exc)) from exc
+    stops = [MachineStop(s.position, s.target_index, s.run, s.direction) for s in setup.stops()]
+    axis = MachineAxis(stops, rotary=setup.axis_type == "rotary", errors=_axis_errors(setup, noise),
+                       feed_per_min=setup.feed_per_min, dwell_s=setup.trigger.dwell_s,
+                       handshake=HANDSHAKE[setup.trigger.mode], datum=setup.datum, seed=seed)
+    emulator = InterferometerEmulator(axis, word_order=setup.devices.word_order, faults=plan,  # type: ignore[arg-type]
+                                      extension=InPositionRegisters(axis, setup.devices.word_order))
+    modbus = ModbusServerThread(emulator.device())
+    return SimulatedMachine(axis, modbus.url, modbus)

@@ -11,6 +11,8 @@ counter; what releases it depends on the program the machine runs:
   to the acknowledge register; the axis moves on at once.
 * ``handshake="cycle-start"`` (manual trigger, M00 at each target): the
   simulated technician presses Cycle Start (:meth:`MachineAxis.cycle_start`).
+* ``handshake="timed"`` (stability trigger, plain dwell): the axis stays
+  ``dwell_s`` of wall-clock time at each target, then moves on.
 
 Motion itself takes no simulated time; machine time advances by move time at
 the feed rate plus the dwell at each stop, so thermal drift depends on the
@@ -29,6 +31,7 @@ from __future__ import annotations
 import math
 import struct
 import threading
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -98,7 +101,7 @@ class MachineAxis:
     environment: Environment = field(default_factory=Environment)
 
     def __post_init__(self) -> None:
-        if self.handshake not in ("ack", "cycle-start"):
+        if self.handshake not in ("ack", "cycle-start", "timed"):
             raise ValueError(f"unknown handshake {self.handshake!r}")
         self._rng = np.random.default_rng([self.seed, 11])
         self._lock = threading.RLock()
@@ -112,6 +115,8 @@ class MachineAxis:
         self.done = False
         self._datum_actual = self.datum
         self.last_angle_deg = 0.0
+        self._arrived = 0.0
+        self._at_overrun = False
         self.captured: list[tuple[int, float]] = []  # (stop index, true actual position) per capture
 
     # -- units: errors are um (linear) or arcsec (rotary) -------------------------------------
@@ -134,9 +139,13 @@ class MachineAxis:
             dist = abs(s.position - self.commanded)
             self.commanded = s.position
             self.machine_time_s += 60.0 * dist / self.feed_per_min + (self.dwell_s if s.target_index else 0.0)
+            self._arrived = time.monotonic()
             if s.target_index:
                 self.in_position = True
                 self.count = (self.count + 1) & 0xFFFF
+                return
+            if self.handshake == "timed":  # reversing at the overrun takes time too
+                self._at_overrun = True
                 return
         self.in_position = False
         self.running = False
@@ -150,6 +159,14 @@ class MachineAxis:
             self.running = True
             self.in_position = False
             self._advance()
+
+    def tick(self) -> None:
+        """Timed dwell: leave the target once ``dwell_s`` has passed (called on every access)."""
+        with self._lock:
+            resting = self.in_position or self._at_overrun
+            if self.handshake == "timed" and resting and time.monotonic() - self._arrived >= self.dwell_s:
+                self.in_position = self._at_overrun = False
+                self._advance()
 
     def acknowledge(self, value: int) -> None:
         """The tool wrote ``value`` to the acknowledge register."""
@@ -165,6 +182,7 @@ class MachineAxis:
 
     def capture(self) -> Capture:
         with self._lock:
+            self.tick()
             actual = self.actual()
             self.captured.append((self.index, actual))
             noise = self._unit(float(self._rng.normal(0.0, self.errors.noise))) if self.errors.noise else 0.0
@@ -206,6 +224,7 @@ class InPositionRegisters:
     def access(self, start: int, address: int, registers: list[int], set_values: list[int] | None) -> None:
         """Called by the emulator on every access, after its own registers are up to date."""
         a = self.axis
+        a.tick()
         if set_values is not None and address == REG_INPOS_ACK:
             a.acknowledge(int(set_values[0]))
         with a._lock:
