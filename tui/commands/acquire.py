@@ -1,7 +1,8 @@
-"""``guideway acquire straightness``: acquire a run from a set-up file.
+"""``guideway acquire straightness|positioning``: acquire a run from a set-up file.
 
     guideway acquire straightness --setup SETUP.toml --out RUN_DIR [--simulate] [--auto]
-    guideway acquire straightness --out RUN_DIR --resume [--simulate] [--auto]
+    guideway acquire positioning --setup SETUP.toml --out RUN_DIR [--simulate] [--auto]
+    guideway acquire KIND --out RUN_DIR --resume [--simulate] [--auto]
 
 The plain-terminal operator asks on stdin/stdout (Enter = capture) unless
 ``--auto`` (the simulated technician).  ``--resume`` continues an interrupted
@@ -14,21 +15,28 @@ import argparse
 import sys
 from pathlib import Path
 
-KINDS = ("straightness",)
+KINDS = ("straightness", "positioning")
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.acquire import SimOptions, run_straightness
+    from acquisition.acquire import SimOptions, run_positioning, run_straightness
     from acquisition.errors import SetupError, UserError
-    from acquisition.setup import load_straightness_setup
+    from acquisition.positioning_setup import positioning_setup_from_dict
+    from acquisition.setup import read_toml, straightness_setup_from_dict
 
     if args.setup is None and not args.resume:
-        raise SetupError("a new run needs --setup SETUP.toml (see docs/setup-straightness.toml)")
-    setup = load_straightness_setup(args.setup) if args.setup is not None else None
-    sim = SimOptions(args.seed, not args.no_noise, args.faults) if args.simulate else None
+        raise SetupError(f"a new run needs --setup SETUP.toml (see docs/setup-{args.kind}.toml)")
     if args.faults and not args.simulate:
         raise SetupError("--faults needs --simulate (faults are injected into the simulated devices)")
-    res = run_straightness(setup, args.out, simulate=sim, auto=args.auto, resume=args.resume)
+    sim = SimOptions(args.seed, not args.no_noise, args.faults) if args.simulate else None
+    source = read_toml(args.setup) if args.setup is not None else None
+    if args.kind == "straightness":
+        setup = straightness_setup_from_dict(source, str(args.setup)) if source is not None else None
+        res = run_straightness(setup, args.out, simulate=sim, auto=args.auto, resume=args.resume)
+    else:
+        psetup = positioning_setup_from_dict(source, str(args.setup)) if source is not None else None
+        res = run_positioning(psetup, args.out, simulate=sim, auto=args.auto, resume=args.resume,  # type: ignore[assignment]
+                              setup_source=source)
     status = res.outcome.exit_status
     if status == "fail":
         raise UserError(f"run failed ({res.outcome.reason}); the points captured are in {args.out}; "
@@ -42,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub) -> None:  # noqa: ANN001
-    a = sub.add_parser("acquire", help="acquire a run (straightness) from a set-up file, or resume one")
+    a = sub.add_parser("acquire", help="acquire a straightness or positioning run from a set-up file, or resume one")
     a.add_argument("kind", choices=KINDS, help="run kind")
     a.add_argument("--setup", type=Path, default=None, help="set-up file (TOML); optional with --resume")
     a.add_argument("--out", type=Path, required=True, help="run directory (new, or the run to resume)")
