@@ -50,6 +50,17 @@ class AcquireResult:
     faults: tuple[str, ...] = ()  # device faults met during the run (recovered or not)
 
 
+def _operator(given: Operator | None, actions: dict[str, Any], auto: bool, stdin: TextIO, stream: TextIO
+              ) -> Operator:
+    """The operator of a run; a given one (tests, the TUI) also gets the simulated physical actions."""
+    if given is None:
+        return AutoOperator(actions, log_to=stream) if auto else TerminalOperator(stdin, stream, actions)
+    own = getattr(given, "actions", None)
+    if isinstance(own, dict):
+        given.actions = {**actions, **own}  # type: ignore[attr-defined]
+    return given
+
+
 def _open_store(setup: StraightnessSetup | None, out: Path, resume: bool
                 ) -> tuple[RunStore, StraightnessSetup, ResumePoint | None]:
     if not resume:
@@ -116,9 +127,8 @@ def run_straightness(
                 store.header["instruments"] = rig.instruments()
                 if simulate is not None:
                     store.header["simulation"] = simulate.to_dict()
-            if operator is None:
-                actions = {"place_block": sim.place_block} if sim is not None else {}
-                operator = AutoOperator(actions, log_to=stream) if auto else TerminalOperator(stdin, stream, actions)
+            actions = {"place_block": sim.place_block} if sim is not None else {}
+            operator = _operator(operator, actions, auto, stdin, stream)
             engine = RunEngine(rig, operator, (store,))
             outcome = engine.run(straightness_plan(setup, {}, resume=rp))
         finally:
@@ -180,7 +190,8 @@ def run_positioning(
     sim = None
     url = setup.devices.controller_url
     if simulate is not None:
-        sim = start_simulated_machine(setup, seed=simulate.seed, noise=simulate.noise, faults=simulate.faults)
+        sim = start_simulated_machine(setup, seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
+                                      start_at=rp.next_index if rp is not None else 0)
         url = sim.controller_url
         print(f"simulated machine axis {setup.axis_name} ({setup.trigger.mode} trigger) behind {url}", file=stream)
     elif not url:
@@ -192,9 +203,8 @@ def run_positioning(
                 store.header["instruments"] = rig.instruments()
                 if simulate is not None:
                     store.header["simulation"] = simulate.to_dict()
-            if operator is None:
-                actions = {"cycle_start": sim.cycle_start} if sim is not None else {}
-                operator = AutoOperator(actions, log_to=stream) if auto else TerminalOperator(stdin, stream, actions)
+            actions = {"cycle_start": sim.cycle_start} if sim is not None else {}
+            operator = _operator(operator, actions, auto, stdin, stream)
             engine = RunEngine(rig, operator, (store,))
             outcome = engine.run(positioning_plan(setup, {}, resume=rp))
         finally:

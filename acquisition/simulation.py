@@ -151,11 +151,12 @@ def _axis_errors(setup: PositioningSetup, noise: bool) -> AxisErrors:
 
 
 def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bool = True,
-                            faults: str | None = None) -> SimulatedMachine:
+                            faults: str | None = None, start_at: int = 0) -> SimulatedMachine:
     """Start a machine axis that runs exactly the set-up's cycle, read by a Modbus TCP controller.
 
     The in-position handshake follows the trigger mode: the PLC waits for the tool's acknowledge
     (in-position), for Cycle Start (manual, M00 at each target) or for the dwell time (stability).
+    ``start_at``: the program is restarted at the block of that measured stop (0-based; resume).
     """
     try:
         plan = FaultPlan.parse(faults)
@@ -167,5 +168,9 @@ def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bo
                        handshake=HANDSHAKE[setup.trigger.mode], datum=setup.datum, seed=seed)
     emulator = InterferometerEmulator(axis, word_order=setup.devices.word_order, faults=plan,  # type: ignore[arg-type]
                                       extension=InPositionRegisters(axis, setup.devices.word_order))
+    if start_at:
+        measured = [k for k, s in enumerate(stops) if s.target_index]
+        axis.index = measured[min(start_at, len(measured) - 1)] - 1  # restart: the next block is that target
+        axis.commanded = stops[axis.index].position
     modbus = ModbusServerThread(emulator.device())
     return SimulatedMachine(axis, modbus.url, modbus)
