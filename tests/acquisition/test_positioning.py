@@ -35,8 +35,8 @@ def ifm(position_mm: float, t: float = 0.0) -> InterferometerReading:
 
 
 def psetup(mode: str = "in-position", **kw: Any) -> PositioningSetup:
-    base = dict(axis_name="X", axis_type="linear", targets=(0.0, 100.0, 200.0), runs=1, overrun=2.0,
-                trigger=TriggerSetup(mode=mode, dwell_s=1.0, timeout_s=5.0, poll_s=0.1))
+    base: dict[str, Any] = {"axis_name": "X", "axis_type": "linear", "targets": (0.0, 100.0, 200.0), "runs": 1,
+                            "overrun": 2.0, "trigger": TriggerSetup(mode=mode, dwell_s=1.0, timeout_s=5.0, poll_s=0.1)}
     return PositioningSetup(**{**base, **kw})
 
 
