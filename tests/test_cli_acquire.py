@@ -79,3 +79,27 @@ def test_a_dropped_sensor_reply_pauses_and_the_run_recovers(tmp_path: Path, setu
 def test_acquire_errors_are_one_line(tmp_path: Path, setup_file: Path, args, fragments) -> None:
     argv = [a.format(tmp=tmp_path, setup=setup_file) for a in args]
     one_line_error(guideway("acquire", "straightness", *argv), *fragments)
+
+
+def test_positioning_gcode_and_simulated_run(tmp_path: Path) -> None:
+    text = (ROOT / "docs" / "setup-positioning.toml").read_text()
+    text = text.replace("end_mm = 1000.0", "end_mm = 400.0").replace("runs = 5 ", "runs = 2 ")
+    setup = tmp_path / "pos.toml"
+    setup.write_text(text)
+    prog = tmp_path / "cycle.ngc"
+    res = guideway("gcode", "--setup", str(setup), "--out", str(prog), "--dialect", "linuxcnc")
+    assert res.returncode == 0, res.stderr
+    program = prog.read_text()
+    assert program.rstrip().endswith("M2") and program.count("M66 P0 L3") == 2 * 2 * 5
+    res = guideway("acquire", "positioning", "--setup", str(setup), "--out", str(tmp_path / "run"), "--simulate",
+                   "--auto")
+    assert res.returncode == 0, res.stderr
+    run = load_run(tmp_path / "run")
+    assert run.meta["kind"] == "positioning" and len(run.points) == 20 and run.meta["status"] == "complete"
+
+
+def test_wrong_setup_kind_is_a_one_line_error(tmp_path: Path) -> None:
+    one_line_error(guideway("acquire", "positioning", "--setup", str(ROOT / "docs" / "setup-straightness.toml"),
+                            "--out", str(tmp_path / "r"), "--simulate"), "needs a positioning setup")
+    one_line_error(guideway("gcode", "--setup", str(ROOT / "docs" / "setup-straightness.toml")),
+                   "needs a positioning setup")
