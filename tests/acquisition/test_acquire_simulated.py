@@ -115,13 +115,13 @@ def lines(path: Path) -> int:
 
 @pytest.mark.parametrize("seed", [11, 29])
 def test_sigkill_then_resume_gives_the_uninterrupted_points(tmp_path: Path, seed: int) -> None:
-    stations = 50
+    stations = 60
     setup = write_setup(tmp_path / "setup.toml", stations)
     common = ["--simulate", "--auto", "--no-noise", "--seed", "5"]
     ref = guideway("acquire", "straightness", "--setup", str(setup), "--out", str(tmp_path / "ref"), *common)
     killed_dir = tmp_path / "killed"
     proc = guideway("acquire", "straightness", "--setup", str(setup), "--out", str(killed_dir), *common)
-    kill_after = random.Random(seed).randrange(2, stations - 15)  # points on disk before the kill
+    kill_after = random.Random(seed).randrange(2, stations - 25)  # points on disk before the kill
     try:
         wait_for(lambda: lines(killed_dir / "points.csv") > kill_after, timeout_s=60, what="points")
     finally:
