@@ -171,7 +171,7 @@ class RunStore:
             # every progress_interval_s (one atomic replace costs two fsyncs)
             if doc["key"] != "progress" or time.monotonic() - self._last_meta_write >= self.progress_interval_s:
                 self._write_meta()
-        elif name == "state" and doc.get("state") == "paused":
+        elif name == "state" and doc.get("state") == "paused" and self.meta:
             self._write_meta()  # a paused run shows its current progress
         elif name == "retract":
             self._retract(doc["match"])

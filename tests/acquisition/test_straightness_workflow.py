@@ -378,3 +378,21 @@ def test_annotate_and_retract_reach_subscribers() -> None:
 def test_setup_steps_property() -> None:
     s = replace(setup(3), return_pass=True)
     assert s.steps() == [(0, 0), (0, 1), (0, 2), (1, 2), (1, 1), (1, 0)]
+
+
+def test_pause_requested_as_the_run_opens(tmp_path) -> None:
+    from acquisition.runstore import RunStore, load_run
+
+    ctl = FakeController()
+    op = Scripted(ctl)
+    store = RunStore(tmp_path / "r", {"setup": {}})
+    eng = RunEngine(Rig(FakeSensor(), ctl), op, (store,))  # type: ignore[arg-type]
+    plan = straightness_plan(setup(3), {})
+
+    def first_pause_then_plan():
+        eng.request_pause()  # honoured right after OpenRun, before the block is placed
+        yield from plan
+
+    out = eng.run(first_pause_then_plan())
+    assert out.exit_status == "success" and op.asked == ["pause"]
+    assert load_run(tmp_path / "r").points["station"].tolist() == [0, 1, 2]
