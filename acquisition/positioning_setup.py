@@ -9,7 +9,7 @@ from typing import Any
 
 from .errors import SetupError
 from .iso230 import CYCLES, LONG_AXIS_MM, Stop, cycle, linear_targets, rotary_targets
-from .setup import DeviceSetup, _Table, read_toml
+from .setup import DeviceSetup, _Table, check_devices, read_toml
 
 TRIGGERS = ("in-position", "stability", "manual")
 DIALECTS = ("fanuc", "linuxcnc")
@@ -198,6 +198,7 @@ def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> 
     ctl = top.table("controller")
     devices = DeviceSetup(sensor_url="", controller_url=ctl.get("url", str, ""),
                           word_order=ctl.get("word_order", str, "ABCD"))
+    check_devices(devices, source, sensor=False)
     gc = top.table("gcode")
     dialect, program_number = gc.get("dialect", str, "fanuc"), gc.get("program_number", int, 1000)
     sim = top.table("simulation")

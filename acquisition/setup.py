@@ -16,6 +16,7 @@ from typing import Any
 from processing.geometry import BlockGeometry
 
 from .errors import SetupError
+from .rig import SENSOR_DRIVERS
 
 UNCERTAINTY_KEYS = ("sensor_noise_um", "sensor_resolution_um", "straightness_um", "angle_urad",
                     "position_um", "offset_mm", "step_mm")
@@ -142,6 +143,19 @@ class StraightnessSetup:
                 "setup": self.to_run_setup()}
 
 
+CONTROLLER_SCHEMES = ("modbus-tcp://", "modbus-rtu:")
+
+
+def check_devices(devices: DeviceSetup, source: str, *, sensor: bool) -> None:
+    """Sensor protocol and controller URL scheme, before any port is opened."""
+    if sensor and devices.sensor_protocol not in SENSOR_DRIVERS:
+        raise SetupError(f"{source}: [sensor] protocol {devices.sensor_protocol!r} is not supported; "
+                         f"use one of: {', '.join(SENSOR_DRIVERS)}")
+    if devices.controller_url and not devices.controller_url.startswith(CONTROLLER_SCHEMES):
+        raise SetupError(f"{source}: [controller] url {devices.controller_url!r} must start with modbus-tcp:// "
+                         "or modbus-rtu: (e.g. modbus-tcp://192.168.0.10:502)")
+
+
 # -- reading TOML ------------------------------------------------------------------------------
 class _Table:
     """One TOML table with typed, named access and a check for unknown keys."""
@@ -256,6 +270,7 @@ def straightness_setup_from_dict(data: dict[str, Any], source: str = "setup") ->
     )
     if devices.word_order not in ("ABCD", "CDAB"):
         raise SetupError(f"{source}: [controller] word_order must be ABCD or CDAB, got {devices.word_order!r}")
+    check_devices(devices, source, sensor=True)
 
     wu = top.table("warmup")
     d = WarmupSetup()

@@ -53,6 +53,8 @@ def test_travel_length_gives_whole_steps_plus_datum(travel: float, length: float
         (lambda d: d.update(uncertainty={"wobble_um": 1.0}), "unknown key 'wobble_um'"),
         (lambda d: d.update(kind="positioning"), "needs a straightness setup"),
         (lambda d: d["block"].update(return_pass="yes"), "return_pass must be a true/false"),
+        (lambda d: d.update(sensor={"protocol": "laser-x"}), "protocol 'laser-x' is not supported"),
+        (lambda d: d.update(controller={"url": "192.168.0.10:502"}), "must start with modbus-tcp://"),
     ],
 )
 def test_setup_mistakes_are_one_line_errors(mutate, message: str) -> None:
@@ -75,3 +77,4 @@ def test_run_json_setup_round_trip() -> None:
     s = load_straightness_setup(EXAMPLE)
     back = straightness_setup_from_run({**s.header(), "setup": s.to_run_setup()})
     assert back == s
+
