@@ -18,6 +18,7 @@ from typing import Any, TextIO
 from . import inposition  # noqa: F401 - registers the in-position message handlers
 from .engine import RunEngine, RunOutcome
 from .errors import SetupError, UserError
+from .live import LiveProfile
 from .operators import AutoOperator, Operator, TerminalOperator
 from .plans.positioning import positioning_plan, positioning_resume_point
 from .plans.straightness import ResumePoint, resume_point, straightness_plan
@@ -48,6 +49,7 @@ class AcquireResult:
     setup: StraightnessSetup
     sim: SimulatedRig | None  # stopped; its world stays readable (ground truth for tests)
     faults: tuple[str, ...] = ()  # device faults met during the run (recovered or not)
+    live: LiveProfile | None = None  # the heights computed while the run went on
 
 
 def _operator(given: Operator | None, actions: dict[str, Any], auto: bool, stdin: TextIO, stream: TextIO
@@ -129,7 +131,12 @@ def run_straightness(
                     store.header["simulation"] = simulate.to_dict()
             actions = {"place_block": sim.place_block} if sim is not None else {}
             operator = _operator(operator, actions, auto, stdin, stream)
-            engine = RunEngine(rig, operator, (store,))
+            def show(p: int, k: int, h: float) -> None:
+                print(f"  live: station {k}{' (return)' if p else ''} surface height {h:+.3f} um", file=stream)
+
+            first = store.loaded_points[0] if rp is not None and store.loaded_points else None
+            live = LiveProfile(setup.geometry, show, first)
+            engine = RunEngine(rig, operator, (store, live))
             outcome = engine.run(straightness_plan(setup, {}, resume=rp))
         finally:
             rig.close()
@@ -138,7 +145,7 @@ def run_straightness(
             sim.close()
     print(f"run {outcome.exit_status}: {store.points_written} points in {out}"
           + (f" ({outcome.reason})" if outcome.reason else ""), file=stream)
-    return AcquireResult(out, outcome, setup, sim, tuple(engine.faults))
+    return AcquireResult(out, outcome, setup, sim, tuple(engine.faults), live)
 
 
 @dataclass(frozen=True)

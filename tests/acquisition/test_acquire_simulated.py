@@ -142,3 +142,17 @@ def test_sigkill_then_resume_gives_the_uninterrupted_points(tmp_path: Path, seed
     # every measured value is the same as in the run that was never interrupted
     assert resumed.points[MEASURED].equals(reference.points[MEASURED])
     assert json.loads((killed_dir / "run.json").read_text())["points"] == stations
+
+
+def test_live_heights_equal_the_offline_profile(tmp_path: Path) -> None:
+    from acquisition.evaluate import process_run_dir
+
+    out = io.StringIO()
+    res = run_straightness(demo_setup(stations=8, samples=2), tmp_path / "run", simulate=SimOptions(seed=6),
+                           auto=True, stream=out)
+    assert res.outcome.exit_status == "success" and res.live is not None
+    _, evaluation = process_run_dir(tmp_path / "run")
+    profile = evaluation.result.profile  # type: ignore[attr-defined]
+    live = [res.live.heights[(0, k)] for k in range(8)]
+    np.testing.assert_allclose(live, profile["height_um"].to_numpy(), atol=1e-9)
+    assert "live: station 7 surface height" in out.getvalue()
