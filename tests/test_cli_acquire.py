@@ -42,13 +42,13 @@ def test_terminal_operator_skip_abort_then_resume(tmp_path: Path, setup_file: Pa
     # datum: Enter; station 1: Enter (capture); station 2: "s" (skip); station 3: "a" (abort)
     res = guideway("acquire", "straightness", "--setup", str(setup_file), "--out", str(out), "--simulate",
                    stdin="\n\ns\na\n")
-    assert res.returncode == 1 and "--resume" in res.stderr
+    assert res.returncode == 1 and f"guideway acquire --resume {out}" in res.stderr
     assert "Move the block to station 2 (x = 200 mm), against the side face" in res.stdout
     assert "[capture/redo/skip/pause/abort]" in res.stdout
     run = load_run(out)
     assert run.meta["status"] == "aborted" and run.points["station"].tolist() == [0, 1]
     assert [s["station"] for s in run.meta["skipped"]] == [2]
-    res = guideway("acquire", "straightness", "--out", str(out), "--resume", "--simulate", "--auto")
+    res = guideway("acquire", "--resume", str(out), "--simulate", "--auto")  # the kind is read from the run
     assert res.returncode == 0, res.stderr
     run = load_run(out)
     assert run.meta["status"] == "complete" and run.points["station"].tolist() == [0, 1, 3, 4, 5]
@@ -73,6 +73,7 @@ def test_a_dropped_sensor_reply_pauses_and_the_run_recovers(tmp_path: Path, setu
         (("--setup", "{setup}", "--out", "{tmp}/r", "--faults", "sensor:drop@1"), ("--faults needs --simulate",)),
         (("--setup", "{setup}", "--out", "{tmp}/r"), ("/dev/ttyUSB0", "check the port name")),
         (("--out", "{tmp}/none", "--resume"), ("no such run directory",)),
+        (("--resume",), ("give the run directory",)),
         (("--setup", "{tmp}/missing.toml", "--out", "{tmp}/r"), ("no such setup file",)),
     ],
 )
