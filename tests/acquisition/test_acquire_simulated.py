@@ -102,6 +102,7 @@ def guideway(*args: str, **kw) -> subprocess.Popen[str]:
 def write_setup(path: Path, stations: int) -> Path:
     text = (ROOT / "docs" / "setup-straightness.toml").read_text()
     text = text.replace("stations = 20 ", f"stations = {stations} ").replace("enabled = true", "enabled = false")
+    text = text.replace("return_pass = false", "return_pass = true")
     path.write_text(text)
     return path
 
@@ -113,15 +114,16 @@ def lines(path: Path) -> int:
         return 0
 
 
-@pytest.mark.parametrize("seed", [11, 29])
+@pytest.mark.parametrize("seed", [11, 29, 4])
 def test_sigkill_then_resume_gives_the_uninterrupted_points(tmp_path: Path, seed: int) -> None:
-    stations = 60
+    stations = 30  # with the return pass: 60 steps, so a kill can land in either pass
+    steps = 2 * stations
     setup = write_setup(tmp_path / "setup.toml", stations)
     common = ["--simulate", "--auto", "--no-noise", "--seed", "5"]
     ref = guideway("acquire", "straightness", "--setup", str(setup), "--out", str(tmp_path / "ref"), *common)
     killed_dir = tmp_path / "killed"
     proc = guideway("acquire", "straightness", "--setup", str(setup), "--out", str(killed_dir), *common)
-    kill_after = random.Random(seed).randrange(2, stations - 25)  # points on disk before the kill
+    kill_after = random.Random(seed).randrange(2, steps - 25)  # points on disk before the kill
     try:
         wait_for(lambda: lines(killed_dir / "points.csv") > kill_after, timeout_s=60, what="points")
     finally:
@@ -131,17 +133,17 @@ def test_sigkill_then_resume_gives_the_uninterrupted_points(tmp_path: Path, seed
     ref.stderr.close()  # type: ignore[union-attr]
     proc.stderr.close()  # type: ignore[union-attr]
     partial = load_run(killed_dir)
-    assert partial.meta["status"] == "in-progress" and len(partial.points) < stations
+    assert partial.meta["status"] == "in-progress" and len(partial.points) < steps
     res = subprocess.run([sys.executable, "-m", "tui.cli", "acquire", "straightness", "--out", str(killed_dir),
                           "--resume", *common], cwd=ROOT, capture_output=True, text=True, timeout=90)
     assert res.returncode == 0, res.stderr
     resumed, reference = load_run(killed_dir), load_run(tmp_path / "ref")
     assert resumed.meta["status"] == "complete" and resumed.meta["uid"] == partial.meta["uid"]
     assert resumed.meta["resumed"][0]["points"] == len(partial.points)
-    assert resumed.points["station"].tolist() == list(range(stations))
+    assert resumed.points["station"].tolist() == list(range(stations)) + list(range(stations - 1, -1, -1))
     # every measured value is the same as in the run that was never interrupted
     assert resumed.points[MEASURED].equals(reference.points[MEASURED])
-    assert json.loads((killed_dir / "run.json").read_text())["points"] == stations
+    assert json.loads((killed_dir / "run.json").read_text())["points"] == steps
 
 
 def test_live_heights_equal_the_offline_profile(tmp_path: Path) -> None:
