@@ -5,6 +5,7 @@ readings are compared with the simulated axis and its error model."""
 from __future__ import annotations
 
 import io
+import re
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -14,6 +15,7 @@ import pytest
 
 from acquisition import messages as m
 from acquisition.acquire import SimOptions, run_positioning
+from acquisition.errors import SetupError
 from acquisition.inposition import AcknowledgeInPosition, InPositionEvent, WaitInPosition
 from acquisition.plans.positioning import positioning_plan, positioning_resume_point
 from acquisition.positioning_setup import (
@@ -273,3 +275,25 @@ def test_aborted_run_resumes_where_the_machine_program_stopped(tmp_path: Path) -
     cols = ["run", "direction", "target_index", "target_mm", "reading_mm"]
     assert len(b) == len(a) and load_run(out).meta["status"] == "complete"
     np.testing.assert_allclose(b[cols].to_numpy(), a[cols].to_numpy(), atol=1e-9)
+
+
+def test_setup_rules_and_errors() -> None:
+    long = positioning_setup_from_dict({"axis": {"end_mm": 3000.0}})
+    assert long.long_axis and long.runs == 1 and len(long.targets) == 13  # about every 250 mm, one run
+    normal = positioning_setup_from_dict({"axis": {"end_mm": 1000.0}})
+    assert not normal.long_axis and normal.runs == 5 and normal.trigger.mode == "in-position"
+    explicit = positioning_setup_from_dict({"axis": {"targets_mm": [0, 10, 20, 30, 40]}})
+    assert explicit.targets == (0.0, 10.0, 20.0, 30.0, 40.0)
+    assert positioning_setup_from_dict(example()).to_run_setup()["environment"]["expansion_ppm_per_k"] == 11.5
+    for data, message in [
+        ({"axis": {"end_mm": 100.0}, "trigger": {"mode": "laser"}}, "mode must be one of"),
+        ({"axis": {}}, "give end_mm"),
+        ({"axis": {"targets_mm": [0, 20, 10]}}, "strictly increasing"),
+        ({"axis": {"end_mm": 100.0, "cycle": "spiral"}}, "cycle must be one of"),
+        ({"axis": {"end_mm": 100.0}, "gcode": {"dialect": "heidenhain"}}, "dialect must be one of"),
+        ({"axis": {"end_mm": 100.0, "speed": 3}}, "unknown key 'speed' in [axis]"),
+        ({"axis": {"type": "rotary", "end_deg": 400.0}}, "rotary axis range"),
+    ]:
+        with pytest.raises(SetupError, match=re.escape(message)) as info:
+            positioning_setup_from_dict(data)
+        assert "\n" not in str(info.value)
