@@ -10,8 +10,18 @@ States and the transitions allowed between them::
 *stop* is the normal end (exit status ``success``), *abort* the operator
 ending early (``abort``, data kept), *fail* a fault that could not be
 recovered (``fail``).  Cleanup (closing the plan, the stop document) always
-runs.  Records go to subscribers as ``(name, document)`` pairs: ``start``,
-``event`` (one per record) and ``stop``.
+runs.
+
+Pausing: the operator answers ``"pause"`` to any question, or another thread
+calls :meth:`RunEngine.request_pause`; at the next message the engine enters
+*paused* and asks the operator to resume or abort.  A driver error while a
+device message runs also pauses the run: the operator is told what failed,
+fixes it and answers ``"retry"`` (the engine reconnects the rig and repeats the
+message) or ``"abort"`` (the run fails with the fault as its reason).
+
+Records go to subscribers as ``(name, document)`` pairs: ``start``, ``event``
+(one per record), ``annotate`` (run metadata), ``retract`` (a point withdrawn
+for a redo), ``state`` (every state change) and ``stop``.
 """
 
 from __future__ import annotations
@@ -28,6 +38,8 @@ from drivers.errors import DriverError, with_context
 
 from .errors import UserError
 from .messages import (
+    DEVICE_MESSAGES,
+    Annotate,
     CloseRun,
     Instruct,
     Log,
@@ -36,7 +48,9 @@ from .messages import (
     Prompt,
     ReadSensor,
     Record,
+    Retract,
     TriggerInterferometer,
+    Wait,
     ZeroInterferometer,
 )
 from .operators import Operator
@@ -67,6 +81,8 @@ TRANSITIONS: dict[RunState, frozenset[RunState]] = {
 # Handlers for message types defined outside acquisition.messages (e.g. positioning
 # workflows): ``EXTRA_HANDLERS[MsgType] = fn(engine, msg) -> reply``.
 EXTRA_HANDLERS: dict[type, Callable[[RunEngine, Any], Any]] = {}
+# Extra message types that talk to a device (a driver error pauses the run, see above).
+EXTRA_DEVICE_MESSAGES: set[type] = set()
 
 EXIT_STATUS = {RunState.STOPPING: "success", RunState.ABORTING: "abort", RunState.FAILED: "fail"}
 
@@ -87,6 +103,12 @@ class _AbortRun(Exception):
         self.reason = reason
 
 
+class _FailRun(Exception):
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
 @dataclass(frozen=True)
 class RunOutcome:
     """How a run ended."""
@@ -98,7 +120,10 @@ class RunOutcome:
 
 
 class RunEngine:
-    """Runs plans against a :class:`~acquisition.rig.Rig` with an injected operator."""
+    """Runs plans against a :class:`~acquisition.rig.Rig` with an injected operator.
+
+    ``request_pause`` and ``request_abort`` may be called from any thread (a UI).
+    """
 
     def __init__(self, rig: Rig, operator: Operator, subscribers: tuple[Subscriber, ...] = ()) -> None:
         self.rig = rig
@@ -107,16 +132,33 @@ class RunEngine:
         self.state = RunState.IDLE
         self.state_log: list[RunState] = [RunState.IDLE]
         self._abort_requested = threading.Event()
+        self._pause_requested = threading.Event()
         self._num_events = 0
         self._uid = ""
         self._started = False
+        self.faults: list[str] = []  # device faults met (and recovered or not) in the last run
+        self._handlers: dict[type, Callable[[Any], Any]] = {
+            OpenRun: self._open_run,
+            Instruct: self._ask,
+            Prompt: self._ask,
+            ZeroInterferometer: lambda _m: self.rig.controller.zero(),
+            TriggerInterferometer: lambda _m: self.rig.controller.trigger_and_read(),
+            ReadSensor: self._read_sensor,
+            Wait: self._wait,
+            Annotate: lambda m: self._emit("annotate", {"uid": self._uid, "key": m.key, "value": m.value}),
+            Retract: self._retract,
+            Record: self._record,
+            Log: lambda m: self.operator.log(m),
+            CloseRun: self._close_run,
+        }
 
     # -- state machine ----------------------------------------------------------------------
-    def _transition(self, new: RunState) -> None:
+    def _transition(self, new: RunState, reason: str = "") -> None:
         if new not in TRANSITIONS[self.state]:
             raise IllegalTransition(f"{self.state.value} -> {new.value}")
         self.state = new
         self.state_log.append(new)
+        self._emit("state", {"uid": self._uid, "state": new.value, "reason": reason})
 
     def subscribe(self, subscriber: Subscriber) -> None:
         self._subscribers.append(subscriber)
@@ -125,23 +167,86 @@ class RunEngine:
         """Ask the running plan to end early (thread-safe); data are kept."""
         self._abort_requested.set()
 
+    @property
+    def abort_requested(self) -> bool:
+        """True once an abort was requested (long-running handlers check it)."""
+        return self._abort_requested.is_set()
+
+    def request_pause(self) -> None:
+        """Pause at the next message (thread-safe); the operator is then asked to resume or abort."""
+        self._pause_requested.set()
+
     def _emit(self, name: str, doc: dict[str, Any]) -> None:
         for sub in self._subscribers:
             sub(name, doc)
 
+    # -- pausing ------------------------------------------------------------------------------
+    def _pause(self, reason: str) -> None:
+        """Paused until the operator resumes; abort from the pause ends the run early."""
+        self._pause_requested.clear()
+        self._transition(RunState.PAUSED, reason)
+        self.operator.log(Log(f"paused: {reason}"))
+        answer = self.operator.prompt(
+            Prompt(f"Run paused ({reason}). Resume the run, or abort it (data are kept)?",
+                   ("resume", "abort"), key="pause"))
+        if answer == "abort" or self._abort_requested.is_set():
+            raise _AbortRun(f"operator aborted while paused ({reason})")
+        self._transition(RunState.RUNNING, "resumed")
+
+    def _device_fault(self, exc: Exception) -> None:
+        """A device message failed: pause until the operator has fixed it and the rig reconnects."""
+        fault = str(exc)
+        self._note_fault(fault)
+        self._transition(RunState.PAUSED, fault)
+        while True:
+            self.operator.log(Log(f"device fault: {fault}"))
+            answer = self.operator.prompt(Prompt(
+                f"Device fault: {fault}. Check the device, its cable and power, then retry "
+                f"(the tool reconnects and repeats the step), or abort the run.",
+                ("retry", "abort"), key="fault", fault=fault))
+            if answer == "abort" or self._abort_requested.is_set():
+                raise _FailRun(fault)
+            try:
+                self.rig.reconnect()
+            except (DriverError, UserError) as again:
+                fault = f"reconnection failed: {again}"
+                self._note_fault(fault)
+                continue
+            self.operator.log(Log("devices reconnected; repeating the step"))
+            self._transition(RunState.RUNNING, "device fault cleared")
+            return
+
+    def _note_fault(self, fault: str) -> None:
+        """Keep the fault, and put the list in the run's metadata (run.json ``faults``)."""
+        self.faults.append(fault)
+        if self._started:
+            self._emit("annotate", {"uid": self._uid, "key": "faults", "value": list(self.faults)})
+
     # -- execution ---------------------------------------------------------------------------
     def _open_run(self, msg: OpenRun) -> float:
-        self._uid = uuid.uuid4().hex
+        self._uid = msg.resume_uid or uuid.uuid4().hex
         now = time.time()
-        self._emit("start", {"uid": self._uid, "time": now, "kind": msg.kind, **msg.metadata})
+        doc = {"uid": self._uid, "time": now, "kind": msg.kind, **msg.metadata}
+        if msg.resume_uid:
+            doc["resume"] = True
+        self._emit("start", doc)
         self._started = True
         return now
 
     def _ask(self, msg: Instruct | Prompt) -> str:
-        answer = self.operator.instruct(msg) if isinstance(msg, Instruct) else self.operator.prompt(msg)
-        if answer == "abort":
-            raise _AbortRun("operator aborted")
-        return answer
+        while True:
+            answer = self.operator.instruct(msg) if isinstance(msg, Instruct) else self.operator.prompt(msg)
+            if answer == "pause":
+                self._pause("operator")
+                continue
+            if answer == "abort":
+                fault = getattr(msg, "fault", "")
+                if fault:
+                    raise _FailRun(fault)
+                raise _AbortRun("operator aborted")
+            if answer not in msg.choices:
+                raise UserError(f"operator answered {answer!r}; expected one of {', '.join(msg.choices)}")
+            return answer
 
     def _read_sensor(self, msg: ReadSensor) -> Any:
         sensor = self.rig.sensor
@@ -153,42 +258,46 @@ class RunEngine:
             label = f"displacement sensor ({getattr(sensor, 'protocol', '?')} on {getattr(sensor, 'endpoint', '?')})"
             raise with_context(exc, label, "; check the cable, baud rate and protocol setting") from exc
 
+    def _wait(self, msg: Wait) -> float:
+        t0 = time.monotonic()
+        if msg.seconds > 0:
+            self._abort_requested.wait(msg.seconds)  # an abort request ends the wait early
+        return time.monotonic() - t0
+
     def _record(self, msg: Record) -> None:
         self._num_events += 1
         self._emit("event", {"uid": self._uid, "seq_num": self._num_events, "time": time.time(),
                              "stream": msg.stream, "data": dict(msg.data)})
 
+    def _retract(self, msg: Retract) -> None:
+        self._num_events -= 1
+        self._emit("retract", {"uid": self._uid, "stream": msg.stream, "match": dict(msg.match)})
+
     def _close_run(self, msg: CloseRun) -> None:
         raise _CloseRun(msg.reason)
 
-    def _handlers(self) -> dict[type, Callable[[Any], Any]]:
-        return {
-            OpenRun: self._open_run,
-            Instruct: self._ask,
-            Prompt: self._ask,
-            ZeroInterferometer: lambda _m: self.rig.controller.zero(),
-            TriggerInterferometer: lambda _m: self.rig.controller.trigger_and_read(),
-            ReadSensor: self._read_sensor,
-            Record: self._record,
-            Log: self.operator.log,
-            CloseRun: self._close_run,
-        }
-
     def _execute(self, msg: Message) -> Any:
-        handler = self._handlers().get(type(msg))
-        if handler is not None:
-            return handler(msg)
-        extra = EXTRA_HANDLERS.get(type(msg))
-        if extra is not None:
-            return extra(self, msg)
-        raise TypeError(f"unknown plan message {msg!r}")
+        kind = type(msg)
+        handler = self._handlers.get(kind)
+        extra = None if handler is not None else EXTRA_HANDLERS.get(kind)
+        if handler is None and extra is None:
+            raise TypeError(f"unknown plan message {msg!r}")
+        if kind not in DEVICE_MESSAGES and kind not in EXTRA_DEVICE_MESSAGES:
+            return handler(msg) if handler is not None else extra(self, msg)  # type: ignore[misc]
+        while True:
+            try:
+                return handler(msg) if handler is not None else extra(self, msg)  # type: ignore[misc]
+            except DriverError as exc:
+                self._device_fault(exc)
 
     def run(self, plan: Plan) -> RunOutcome:
         """Execute ``plan`` to its end; return how it ended."""
         self._transition(RunState.RUNNING)
         self._abort_requested.clear()
+        self._pause_requested.clear()
         self._num_events = 0
         self._started = False
+        self.faults = []
         reason = ""
         reply: Any = None
         end_state = RunState.STOPPING
@@ -196,6 +305,8 @@ class RunEngine:
             while True:
                 if self._abort_requested.is_set():
                     raise _AbortRun("abort requested")
+                if self._pause_requested.is_set():
+                    self._pause("pause requested")
                 try:
                     msg = plan.send(reply)
                 except StopIteration:
@@ -207,6 +318,8 @@ class RunEngine:
                     break
         except _AbortRun as exc:
             end_state, reason = RunState.ABORTING, exc.reason
+        except _FailRun as exc:
+            end_state, reason = RunState.FAILED, exc.reason
         except (DriverError, UserError) as exc:
             end_state, reason = RunState.FAILED, str(exc)
         except KeyboardInterrupt:
@@ -218,7 +331,7 @@ class RunEngine:
         return self._finish(plan, end_state, reason)
 
     def _finish(self, plan: Plan, end_state: RunState, reason: str) -> RunOutcome:
-        self._transition(end_state)
+        self._transition(end_state, reason)
         try:
             plan.close()
         finally:

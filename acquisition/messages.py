@@ -4,8 +4,13 @@ Every message is a small frozen dataclass.  Replies: ``OpenRun`` -> run start
 time (s since the epoch); ``Instruct``/``Prompt`` -> the operator's answer;
 ``ReadSensor`` -> :class:`~drivers.readings.AveragedDisplacement`;
 ``TriggerInterferometer`` -> :class:`~drivers.readings.InterferometerReading`;
-the others -> ``None``.
+``Wait`` -> the seconds actually waited; the others -> ``None``.
+
+The engine handles two answers itself and never passes them to the plan:
+``"pause"`` (the run pauses, the operator is asked to resume or abort, then the
+same question is asked again) and ``"abort"`` (the run ends early, data kept).
 """
+
 
 from __future__ import annotations
 
@@ -19,6 +24,7 @@ class OpenRun:
 
     kind: str
     metadata: dict[str, Any] = field(default_factory=dict)
+    resume_uid: str = ""  # continue the run with this uid (``guideway acquire --resume``)
 
 
 @dataclass(frozen=True)
@@ -33,15 +39,24 @@ class Instruct:
     text: str
     params: dict[str, Any] = field(default_factory=dict)
     choices: tuple[str, ...] = ("done", "abort")
+    key: str = ""
 
 
 @dataclass(frozen=True)
 class Prompt:
-    """Ask the operator a question with a fixed set of answers."""
+    """Ask the operator a question with a fixed set of answers.
+
+    ``key`` names the kind of question (``"jump"``, ``"invalid"``, ``"fault"``,
+    ``"warmup"``, ``"pause"``, ``"resume"``) so automatic operators and the TUI can
+    treat it without parsing the text.  ``fault``: the unrecovered fault behind the
+    question; answering ``"abort"`` then ends the run as *fail* with that reason.
+    """
 
     text: str
     choices: tuple[str, ...]
     default: str | None = None
+    key: str = ""
+    fault: str = ""
 
 
 @dataclass(frozen=True)
@@ -59,6 +74,29 @@ class ReadSensor:
     """Averaged displacement-sensor reading of ``samples`` polled values."""
 
     samples: int = 1
+
+
+@dataclass(frozen=True)
+class Wait:
+    """Let ``seconds`` pass (warm-up observation interval, dwell)."""
+
+    seconds: float
+
+
+@dataclass(frozen=True)
+class Annotate:
+    """Set top-level run metadata ``key`` (run.json) to ``value``; on disk when this returns."""
+
+    key: str
+    value: Any
+
+
+@dataclass(frozen=True)
+class Retract:
+    """Withdraw the last recorded point (the operator redoes it); ``match`` must equal its fields."""
+
+    match: dict[str, Any]
+    stream: str = "primary"
 
 
 @dataclass(frozen=True)
@@ -85,5 +123,8 @@ class CloseRun:
 
 Message = (
     OpenRun | Instruct | Prompt | ZeroInterferometer | TriggerInterferometer
-    | ReadSensor | Record | Log | CloseRun
+    | ReadSensor | Wait | Annotate | Retract | Record | Log | CloseRun
 )
+
+# Messages that talk to a device: a driver error while executing one pauses the run.
+DEVICE_MESSAGES: tuple[type, ...] = (ZeroInterferometer, TriggerInterferometer, ReadSensor)

@@ -23,12 +23,22 @@ class Operator(Protocol):
 
 class AutoOperator:
     """Simulated technician: performs physical actions through ``actions`` and
-    answers every prompt with its default (or first) choice."""
+    answers every question with ``answers[msg.key]`` if given, else its default
+    (or first) choice.
+
+    A question about a fault (``Prompt.fault``) is answered ``"retry"`` at most
+    ``fault_retries`` times in a run, then ``"abort"``: an unattended run gives up
+    on a fault that does not clear instead of retrying for ever.  A warm-up that
+    does not settle before its timeout is overridden (recorded in the run).
+    """
 
     def __init__(self, actions: dict[str, Callable[..., None]] | None = None,
-                 log_to: TextIO | None = None) -> None:
+                 log_to: TextIO | None = None, *, answers: dict[str, str] | None = None,
+                 fault_retries: int = 1) -> None:
         self.actions = actions or {}
         self.log_to = log_to
+        self.answers = {"warmup": "override", **(answers or {})}
+        self.fault_retries = fault_retries
         self.transcript: list[str] = []
 
     def instruct(self, msg: Instruct) -> str:
@@ -36,10 +46,18 @@ class AutoOperator:
         action = self.actions.get(msg.action)
         if action is not None:
             action(**msg.params)
-        return msg.choices[0]
+        return self.answers.get(msg.key) or msg.choices[0]
 
     def prompt(self, msg: Prompt) -> str:
         self.transcript.append(msg.text)
+        if msg.fault:  # the first choice is the one that tries again (retry, wait, acknowledge)
+            if self.fault_retries <= 0:
+                return "abort"
+            self.fault_retries -= 1
+            return msg.choices[0]
+        answer = self.answers.get(msg.key)
+        if answer in msg.choices:
+            return answer
         return msg.default if msg.default is not None else msg.choices[0]
 
     def log(self, msg: Log) -> None:
@@ -49,11 +67,16 @@ class AutoOperator:
 
 
 class TerminalOperator:
-    """Plain terminal: prints instructions, Enter accepts the first choice."""
+    """Plain terminal: prints instructions and questions with their choices; Enter
+    accepts the default (for an instruction: the first choice, e.g. ``capture``); a
+    unique prefix selects a choice (``r`` = retry/redo when unambiguous)."""
 
-    def __init__(self, stdin: TextIO = sys.stdin, stdout: TextIO = sys.stdout) -> None:
+    def __init__(self, stdin: TextIO = sys.stdin, stdout: TextIO = sys.stdout,
+                 actions: dict[str, Callable[..., None]] | None = None) -> None:
         self.stdin = stdin
         self.stdout = stdout
+        # Simulated physical actions (``--simulate``): done when the operator confirms an instruction.
+        self.actions = actions or {}
 
     def _ask(self, text: str, choices: tuple[str, ...], default: str | None) -> str:
         default = default or choices[0]
@@ -71,7 +94,11 @@ class TerminalOperator:
             print(f"  please answer one of: {', '.join(choices)}", file=self.stdout)
 
     def instruct(self, msg: Instruct) -> str:
-        return self._ask(msg.text, msg.choices, None)
+        answer = self._ask(msg.text, msg.choices, None)
+        action = self.actions.get(msg.action)
+        if answer == msg.choices[0] and action is not None:
+            action(**msg.params)
+        return answer
 
     def prompt(self, msg: Prompt) -> str:
         return self._ask(msg.text, msg.choices, msg.default)

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import contextlib
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 from drivers.errors import DriverError
@@ -28,6 +29,8 @@ class Rig:
 
     sensor: DisplacementSensor | None
     controller: InterferometerController
+    # Opens fresh connections to the same devices (set by open_rig); None: reconnect just retries.
+    reopen: Callable[[], Rig] | None = field(default=None, repr=False)
 
     def instruments(self) -> dict[str, dict[str, Any]]:
         """run.json ``instruments``: protocol, endpoint, identity of each device."""
@@ -38,6 +41,17 @@ class Rig:
         out["interferometer"] = {"protocol": f"modbus ({self.controller.word_order})",
                                  "endpoint": self.controller.endpoint, **self.controller.identify()}
         return out
+
+    def reconnect(self) -> None:
+        """Close both devices and open them again at the same endpoints (after a fault).
+
+        Raises the same one-line :class:`UserError` as :func:`open_rig` if a device is still unreachable.
+        """
+        if self.reopen is None:
+            return
+        self.close()
+        fresh = self.reopen()
+        self.sensor, self.controller = fresh.sensor, fresh.controller
 
     def close(self) -> None:
         for dev in (self.sensor, self.controller):
@@ -66,7 +80,7 @@ def open_sensor(protocol: str, url: str, *, baudrate: int | None = 115200) -> Di
         raise UserError(f"{exc}; check the port name and that the sensor is connected") from exc
 
 
-def open_rig(sensor_protocol: str, sensor_url: str, controller_url: str, *, baudrate: int = 115200,
+def open_rig(sensor_protocol: str, sensor_url: str, controller_url: str, *, baudrate: int | None = None,
              word_order: str = "ABCD") -> Rig:
     """Open both devices; a one-line :class:`UserError` if either is unreachable."""
     sensor = open_sensor(sensor_protocol, sensor_url, baudrate=baudrate)
@@ -75,7 +89,11 @@ def open_rig(sensor_protocol: str, sensor_url: str, controller_url: str, *, baud
     except UserError:
         sensor.close()
         raise
-    return Rig(sensor, controller)
+
+    def reopen() -> Rig:
+        return open_rig(sensor_protocol, sensor_url, controller_url, baudrate=baudrate, word_order=word_order)
+
+    return Rig(sensor, controller, reopen)
 
 
 def open_controller(url: str, *, word_order: str = "ABCD") -> InterferometerController:
@@ -84,3 +102,9 @@ def open_controller(url: str, *, word_order: str = "ABCD") -> InterferometerCont
         return InterferometerController.from_url(url, word_order=word_order)
     except (DriverError, ValueError) as exc:
         raise UserError(f"{exc}; check the controller address and that it is switched on") from exc
+
+
+def open_controller_rig(controller_url: str, *, word_order: str = "ABCD") -> Rig:
+    """A rig with the interferometer controller only (positioning runs)."""
+    controller = open_controller(controller_url, word_order=word_order)
+    return Rig(None, controller, lambda: open_controller_rig(controller_url, word_order=word_order))

@@ -4,6 +4,7 @@ Writing: :class:`RunStore` is an engine subscriber.  ``run.json`` is always
 replaced atomically (temp file, fsync, rename, fsync of the directory);
 every point is appended to ``points.csv``, flushed and fsynced before the
 engine continues, so a crash or kill loses at most the point being captured.
+:meth:`RunStore.for_resume` reopens an interrupted run to append to it.
 
 Reading: :func:`load_run` validates the directory and returns the metadata
 and the points as a DataFrame, or raises :class:`RunFormatError` with a
@@ -18,6 +19,7 @@ import json
 import math
 import os
 import tempfile
+import time
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -112,6 +114,39 @@ class RunStore:
         self._csv: TextIO | None = None
         self._columns: tuple[str, ...] = ()
         self.points_written = 0
+        self.loaded_points: list[dict[str, Any]] = []  # the points already on disk (resume)
+        self._resuming = False
+        self._prior_faults: list[str] = []
+        self.progress_interval_s = 1.0
+        self._last_meta_write = -math.inf
+
+    def _write_meta(self) -> None:
+        write_json_atomic(self.run_dir / "run.json", self.meta)
+        self._last_meta_write = time.monotonic()
+
+    @classmethod
+    def for_resume(cls, run_dir: Path | str) -> RunStore:
+        """A store that continues the interrupted run in ``run_dir`` (its points are kept).
+
+        A partial last line of points.csv (a kill in the middle of a write) is cut off first.
+        """
+        run = load_run(run_dir)
+        if run.meta.get("status") == "complete":
+            raise RunFormatError(f"{run.path}: the run is already complete; nothing to resume")
+        store = cls(run.path, {})
+        store.meta = dict(run.meta)
+        store._columns = point_columns(run.kind, run.meta.get("axis_type"))
+        header = (run.path / "points.csv").read_text(encoding="utf-8").split("\n", 1)[0].split(",")
+        if tuple(h.strip() for h in header) != store._columns:
+            raise RunFormatError(f"{run.path}: points.csv was written by another format version; "
+                                 "it cannot be resumed, start a new run")
+        if run.warnings:  # the incomplete last line: rewrite the file without it
+            store._rewrite_points(_complete_lines(run.path / "points.csv"))
+        store.points_written = len(run.points)
+        store.loaded_points = run.points.to_dict("records")
+        store._prior_faults = list(run.meta.get("faults", []))
+        store._resuming = True
+        return store
 
     def prepare(self) -> None:
         """Create the directory; refuse one that already holds files."""
@@ -127,10 +162,74 @@ class RunStore:
             self._start(doc)
         elif name == "event":
             self._event(doc)
+        elif name == "annotate":
+            value = doc["value"]
+            if doc["key"] == "faults":  # this session's faults after those of earlier sessions (resume)
+                value = self._prior_faults + list(value)
+            self.meta[doc["key"]] = value
+            # progress after a point is already implied by the fsynced point: write it at most
+            # every progress_interval_s (one atomic replace costs two fsyncs)
+            if doc["key"] != "progress" or time.monotonic() - self._last_meta_write >= self.progress_interval_s:
+                self._write_meta()
+        elif name == "state" and doc.get("state") == "paused" and self.meta:
+            self._write_meta()  # a paused run shows its current progress
+        elif name == "retract":
+            self._retract(doc["match"])
         elif name == "stop":
             self._stop(doc)
 
+    def close(self) -> None:
+        """Close the points file without ending the run (the run stays in progress)."""
+        if self._csv is not None:
+            self._csv.close()
+            self._csv = None
+
+    def _reopen_csv(self) -> None:
+        self._csv = open(self.run_dir / "points.csv", "a", encoding="utf-8", newline="")  # noqa: SIM115
+
+    def _rewrite_points(self, lines: list[str]) -> None:
+        """Replace points.csv atomically with ``lines`` (header first)."""
+        path = self.run_dir / "points.csv"
+        fd, tmp = tempfile.mkstemp(prefix=".points.csv.", suffix=".tmp", dir=self.run_dir)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
+                f.write("".join(line + "\n" for line in lines))
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        _fsync_dir(self.run_dir)
+
+    def _retract(self, match: dict[str, Any]) -> None:
+        """Withdraw the last point whose fields equal ``match`` (a redo); rewrites points.csv atomically."""
+        if self._csv is not None:
+            self._csv.close()
+        lines = _complete_lines(self.run_dir / "points.csv")
+        header = lines[0].split(",")
+        want = {header.index(k): format_cell(v) for k, v in match.items()}
+        for i in range(len(lines) - 1, 0, -1):
+            cells = lines[i].split(",")
+            if all(cells[j] == v for j, v in want.items()):
+                del lines[i]
+                break
+        else:
+            self._reopen_csv()
+            raise RuntimeError(f"retract: no point matches {match}")
+        self._rewrite_points(lines)
+        self.points_written -= 1
+        self._reopen_csv()
+
     def _start(self, doc: dict[str, Any]) -> None:
+        if self._resuming:
+            self.meta.update(status="in-progress", points=self.points_written)
+            self.meta.pop("ended", None)
+            self.meta.pop("end_reason", None)
+            self.meta.setdefault("resumed", []).append({"at": utc_now_iso(), "points": self.points_written})
+            self._write_meta()
+            self._reopen_csv()
+            return
         self.prepare()
         kind = doc["kind"]
         self._columns = point_columns(kind, self.header.get("axis_type"))
@@ -144,7 +243,7 @@ class RunStore:
             **self.header,
             "points": 0,
         }
-        write_json_atomic(self.run_dir / "run.json", self.meta)
+        self._write_meta()
         self._csv = open(self.run_dir / "points.csv", "w", encoding="utf-8", newline="")  # noqa: SIM115
         self._csv.write(",".join(self._columns) + "\n")
         self._sync_csv()
@@ -177,7 +276,13 @@ class RunStore:
             end_reason=doc.get("reason", ""),
             points=self.points_written,
         )
-        write_json_atomic(self.run_dir / "run.json", self.meta)
+        self._write_meta()
+
+
+def _complete_lines(path: Path) -> list[str]:
+    """The lines of a points file that end with a newline (a partial last line is dropped)."""
+    text = path.read_text(encoding="utf-8")
+    return text[: text.rfind("\n") + 1].splitlines()
 
 
 @dataclass(frozen=True)

@@ -1,14 +1,25 @@
-"""Validated set-up of a gauge-block straightness run."""
+"""Validated set-up of a gauge-block straightness run, from a TOML file or run.json.
+
+``docs/setup-straightness.toml`` is the commented example of every key.  Every
+problem is a one-line :class:`~acquisition.errors.SetupError` naming the file,
+the table and the key.
+"""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import tomllib
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
 from typing import Any
 
 from processing.geometry import BlockGeometry
 
 from .errors import SetupError
+from .rig import SENSOR_DRIVERS
+
+UNCERTAINTY_KEYS = ("sensor_noise_um", "sensor_resolution_um", "straightness_um", "angle_urad",
+                    "position_um", "offset_mm", "step_mm")
 
 
 @dataclass(frozen=True)
@@ -23,6 +34,53 @@ class DeviceSetup:
 
 
 @dataclass(frozen=True)
+class WarmupSetup:
+    """Warm-up: readings every ``interval_s`` until the peak-to-peak drift over the last
+    ``window`` readings stays below both limits, or ``timeout_s`` passes (then the
+    operator waits on, overrides or aborts)."""
+
+    enabled: bool = True
+    window: int = 5
+    interval_s: float = 2.0
+    max_drift_ifm_um: float = 0.5
+    max_drift_sensor_um: float = 0.5
+    timeout_s: float = 1800.0
+
+    def __post_init__(self) -> None:
+        if self.window < 2:
+            raise SetupError(f"[warmup] window must be at least 2 readings, got {self.window}")
+        for name in ("interval_s", "max_drift_ifm_um", "max_drift_sensor_um", "timeout_s"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise SetupError(f"[warmup] {name} must be a finite number >= 0, got {v}")
+
+
+@dataclass(frozen=True)
+class ValidationSetup:
+    """Checks on every capture: sensor stability, plausible ranges, jumps between neighbours."""
+
+    max_sensor_std_um: float = 2.0
+    sensor_range_mm: tuple[float, float] = (-50.0, 50.0)
+    max_straightness_um: float = 1000.0
+    max_angle_urad: float = 5000.0
+    max_lin_um: float = 2000.0
+    jump_ifm_um: float = 50.0
+    jump_sensor_um: float = 50.0
+    capture_attempts: int = 3
+
+    def __post_init__(self) -> None:
+        lo, hi = self.sensor_range_mm
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise SetupError(f"[validation] sensor_range_mm must be [low, high] with low < high, got {[lo, hi]}")
+        if self.capture_attempts < 1:
+            raise SetupError(f"[validation] capture_attempts must be >= 1, got {self.capture_attempts}")
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, float) and not (math.isfinite(v) and v > 0):
+                raise SetupError(f"[validation] {f.name} must be a positive number, got {v}")
+
+
+@dataclass(frozen=True)
 class StraightnessSetup:
     """Everything a straightness run needs before it starts."""
 
@@ -31,6 +89,10 @@ class StraightnessSetup:
     geometry: BlockGeometry
     devices: DeviceSetup = field(default_factory=DeviceSetup)
     samples_per_reading: int = 5
+    return_pass: bool = False
+    warmup: WarmupSetup = field(default_factory=lambda: WarmupSetup(enabled=False))
+    validation: ValidationSetup = field(default_factory=ValidationSetup)
+    uncertainty: dict[str, float] = field(default_factory=dict)
     machine: str = ""
     axis: str = ""
     operator: str = ""
@@ -43,16 +105,231 @@ class StraightnessSetup:
             raise SetupError(f"stations must be at least 2 (datum + one step), got {self.stations}")
         if self.samples_per_reading < 1:
             raise SetupError(f"samples_per_reading must be >= 1, got {self.samples_per_reading}")
+        for k, v in self.uncertainty.items():
+            if k not in UNCERTAINTY_KEYS:
+                raise SetupError(f"[uncertainty] unknown key {k!r}; use {', '.join(UNCERTAINTY_KEYS)}")
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise SetupError(f"[uncertainty] {k} must be a number >= 0, got {v!r}")
 
     def station_x_mm(self, k: int) -> float:
         """Nominal block position of station k: k times the block length."""
         return k * self.block_length_mm
 
+    def steps(self) -> list[tuple[int, int]]:
+        """The (pass, station) steps in order: forward 0..n-1, then (return pass) n-1..0."""
+        fwd = [(0, k) for k in range(self.stations)]
+        back = [(1, k) for k in range(self.stations - 1, -1, -1)] if self.return_pass else []
+        return fwd + back
+
     def to_run_setup(self) -> dict[str, Any]:
-        """run.json ``setup`` object (run format version 1)."""
-        return {
+        """run.json ``setup`` object (run format version 2)."""
+        out: dict[str, Any] = {
             "block_length_mm": self.block_length_mm,
             "stations": self.stations,
             "samples_per_reading": self.samples_per_reading,
             "geometry": self.geometry.to_dict(),
+            "return_pass": self.return_pass,
+            "warmup": asdict(self.warmup),
+            "validation": {**asdict(self.validation), "sensor_range_mm": list(self.validation.sensor_range_mm)},
+            "devices": asdict(self.devices),
         }
+        if self.uncertainty:
+            out["uncertainty"] = dict(self.uncertainty)
+        return out
+
+    def header(self) -> dict[str, Any]:
+        """run.json's descriptive fields (the run store adds the rest)."""
+        return {"machine": self.machine, "axis": self.axis, "operator": self.operator, "notes": self.notes,
+                "setup": self.to_run_setup()}
+
+
+CONTROLLER_SCHEMES = ("modbus-tcp://", "modbus-rtu:")
+
+
+def check_devices(devices: DeviceSetup, source: str, *, sensor: bool) -> None:
+    """Sensor protocol and controller URL scheme, before any port is opened."""
+    if sensor and devices.sensor_protocol not in SENSOR_DRIVERS:
+        raise SetupError(f"{source}: [sensor] protocol {devices.sensor_protocol!r} is not supported; "
+                         f"use one of: {', '.join(SENSOR_DRIVERS)}")
+    if devices.controller_url and not devices.controller_url.startswith(CONTROLLER_SCHEMES):
+        raise SetupError(f"{source}: [controller] url {devices.controller_url!r} must start with modbus-tcp:// "
+                         "or modbus-rtu: (e.g. modbus-tcp://192.168.0.10:502)")
+
+
+# -- reading TOML ------------------------------------------------------------------------------
+class _Table:
+    """One TOML table with typed, named access and a check for unknown keys."""
+
+    def __init__(self, source: str, name: str, data: Any) -> None:
+        if not isinstance(data, dict):
+            raise SetupError(f"{source}: [{name}] must be a table")
+        self.source, self.name, self.data = source, name, data
+        self.used: set[str] = set()
+
+    def _where(self, key: str) -> str:
+        return f"{self.source}: [{self.name}] {key}" if self.name else f"{self.source}: {key}"
+
+    def get(self, key: str, kind: type | tuple[type, ...], default: Any = ..., *, required: bool = False) -> Any:
+        self.used.add(key)
+        if key not in self.data:
+            if required or default is ...:
+                raise SetupError(f"{self._where(key)} is missing; add it (see the examples docs/setup-*.toml)")
+            return default
+        v = self.data[key]
+        if kind is float and isinstance(v, int) and not isinstance(v, bool):
+            v = float(v)
+        if isinstance(v, bool) and kind is not bool:
+            raise SetupError(f"{self._where(key)} must be a {_name(kind)}, got {v!r}")
+        if not isinstance(v, kind):
+            raise SetupError(f"{self._where(key)} must be a {_name(kind)}, got {v!r}")
+        return v
+
+    def vector(self, key: str, n: int, default: Any = ...) -> tuple[float, ...]:
+        v = self.get(key, list, default)
+        if not (isinstance(v, list | tuple) and len(v) == n and all(_is_number(x) for x in v)):
+            raise SetupError(f"{self._where(key)} must be a list of {n} numbers, got {v!r}")
+        return tuple(float(x) for x in v)
+
+    def table(self, key: str) -> _Table:
+        self.used.add(key)
+        return _Table(self.source, key, self.data.get(key, {}))
+
+    def check_unknown(self) -> None:
+        extra = sorted(set(self.data) - self.used)
+        if extra:
+            where = f"[{self.name}]" if self.name else "top level"
+            raise SetupError(f"{self.source}: unknown key {extra[0]!r} in {where}; check the spelling "
+                             "(see the commented examples docs/setup-*.toml)")
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _name(kind: type | tuple[type, ...]) -> str:
+    names = {bool: "true/false", int: "whole number", float: "number", str: "string", list: "list", dict: "table"}
+    if isinstance(kind, tuple):
+        return " or ".join(names.get(k, k.__name__) for k in kind)
+    return names.get(kind, kind.__name__)
+
+
+def read_toml(path: Path | str) -> dict[str, Any]:
+    """Parse a TOML set-up file; one-line errors for a missing or malformed file."""
+    path = Path(path)
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise SetupError(f"{path}: no such setup file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SetupError(f"{path}: cannot read the setup file ({exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SetupError(f"{path}: not valid TOML ({exc})") from None
+
+
+def straightness_setup_from_dict(data: dict[str, Any], source: str = "setup") -> StraightnessSetup:
+    """Build and validate a :class:`StraightnessSetup` from the TOML structure."""
+    top = _Table(source, "", data)
+    kind = top.get("kind", str, "straightness")
+    if kind != "straightness":
+        raise SetupError(f"{source}: kind is {kind!r}; this command needs a straightness setup")
+    text = {k: top.get(k, str, "") for k in ("machine", "axis", "operator", "notes")}
+
+    blk = top.table("block")
+    length = blk.get("length_mm", float, required=True)
+    stations = blk.get("stations", int, None)
+    travel = blk.get("travel_length_mm", float, None)
+    if (stations is None) == (travel is None):
+        raise SetupError(f"{source}: [block] give exactly one of stations or travel_length_mm")
+    if travel is not None:
+        if not (math.isfinite(travel) and travel > 0 and length > 0):
+            raise SetupError(f"{source}: [block] travel_length_mm must be a positive length, got {travel}")
+        # Whole steps that fit in the travel, plus the datum station (1e-9: 1000/100 is exactly 10 steps).
+        stations = int(math.floor(travel / length + 1e-9)) + 1
+    samples = blk.get("samples_per_reading", int, 5)
+    return_pass = blk.get("return_pass", bool, False)
+
+    geo = top.table("geometry")
+    try:
+        geometry = BlockGeometry(
+            mirror_mm=geo.vector("mirror_mm", 3),  # type: ignore[arg-type]
+            sensor_mm=geo.vector("sensor_mm", 3),  # type: ignore[arg-type]
+            sensor_beam=geo.vector("sensor_beam", 3, [0.0, -1.0, 0.0]),  # type: ignore[arg-type]
+            sensor_sign=geo.get("sensor_sign", str, "height"),
+        )
+    except ValueError as exc:
+        raise SetupError(f"{source}: [geometry] {exc}") from None
+
+    sen = top.table("sensor")
+    ctl = top.table("controller")
+    devices = DeviceSetup(
+        sensor_protocol=sen.get("protocol", str, "keyence-lkg"),
+        sensor_url=sen.get("port", str, ""),
+        sensor_baud=sen.get("baud", int, 115200),
+        controller_url=ctl.get("url", str, ""),
+        word_order=ctl.get("word_order", str, "ABCD"),
+    )
+    if devices.word_order not in ("ABCD", "CDAB"):
+        raise SetupError(f"{source}: [controller] word_order must be ABCD or CDAB, got {devices.word_order!r}")
+    check_devices(devices, source, sensor=True)
+
+    wu = top.table("warmup")
+    d = WarmupSetup()
+    warmup = WarmupSetup(
+        enabled=wu.get("enabled", bool, True),
+        window=wu.get("window", int, d.window),
+        interval_s=wu.get("interval_s", float, d.interval_s),
+        max_drift_ifm_um=wu.get("max_drift_ifm_um", float, d.max_drift_ifm_um),
+        max_drift_sensor_um=wu.get("max_drift_sensor_um", float, d.max_drift_sensor_um),
+        timeout_s=wu.get("timeout_s", float, d.timeout_s),
+    )
+    va = top.table("validation")
+    v = ValidationSetup()
+    validation = ValidationSetup(
+        max_sensor_std_um=va.get("max_sensor_std_um", float, v.max_sensor_std_um),
+        sensor_range_mm=va.vector("sensor_range_mm", 2, list(v.sensor_range_mm)),  # type: ignore[arg-type]
+        max_straightness_um=va.get("max_straightness_um", float, v.max_straightness_um),
+        max_angle_urad=va.get("max_angle_urad", float, v.max_angle_urad),
+        max_lin_um=va.get("max_lin_um", float, v.max_lin_um),
+        jump_ifm_um=va.get("jump_ifm_um", float, v.jump_ifm_um),
+        jump_sensor_um=va.get("jump_sensor_um", float, v.jump_sensor_um),
+        capture_attempts=va.get("capture_attempts", int, v.capture_attempts),
+    )
+    unc = top.table("uncertainty")
+    uncertainty = {k: unc.get(k, float) for k in list(unc.data)}
+    for t in (top, blk, geo, sen, ctl, wu, va):
+        t.check_unknown()
+    return StraightnessSetup(
+        block_length_mm=length, stations=stations, geometry=geometry, devices=devices,  # type: ignore[arg-type]
+        samples_per_reading=samples, return_pass=return_pass, warmup=warmup, validation=validation,
+        uncertainty=uncertainty, **text,
+    )
+
+
+def load_straightness_setup(path: Path | str) -> StraightnessSetup:
+    """Read ``path`` (TOML) into a validated straightness setup."""
+    return straightness_setup_from_dict(read_toml(path), str(path))
+
+
+def straightness_setup_from_run(meta: dict[str, Any]) -> StraightnessSetup:
+    """The setup a straightness run was started with, from its run.json (for ``--resume``)."""
+    s = meta.get("setup") or {}
+    try:
+        dev = s.get("devices", {})
+        val = dict(s.get("validation", {}))
+        if "sensor_range_mm" in val:
+            val["sensor_range_mm"] = tuple(val["sensor_range_mm"])
+        return StraightnessSetup(
+            block_length_mm=float(s["block_length_mm"]),
+            stations=int(s["stations"]),
+            geometry=BlockGeometry.from_dict(s["geometry"]),
+            devices=DeviceSetup(**dev),
+            samples_per_reading=int(s.get("samples_per_reading", 5)),
+            return_pass=bool(s.get("return_pass", False)),
+            warmup=WarmupSetup(**s.get("warmup", {"enabled": False})),
+            validation=ValidationSetup(**val),
+            uncertainty=dict(s.get("uncertainty", {})),
+            machine=meta.get("machine", ""), axis=meta.get("axis", ""),
+            operator=meta.get("operator", ""), notes=meta.get("notes", ""),
+        )
+    except (KeyError, TypeError, ValueError) as exc:
+        raise SetupError(f"run.json: the stored setup cannot be read back ({exc}); start a new run") from None

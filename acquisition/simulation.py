@@ -13,17 +13,20 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from pymodbus import FramerType
 
 from mocks.faults import FaultPlan, FaultSpecError
 from mocks.interferometer import InterferometerEmulator, ModbusServerThread, start_controller
 from mocks.keyence_lkg import KeyenceLKGEmulator
+from mocks.machine_axis import AxisErrors, InPositionRegisters, MachineAxis, MachineStop
 from mocks.serial_endpoints import ByteEmulator, PtyEndpoint
-from mocks.world import Noise, World
+from mocks.world import BlockSetup, Noise, World
 from processing.geometry import BlockGeometry
 
 from .errors import UserError
+from .positioning_setup import PositioningSetup, SimulatedAxisSetup
 
 SensorSource = Callable[..., float | None]
 """What a sensor emulator reads: ``source(output=1)`` gives the displacement in mm
@@ -76,8 +79,8 @@ class SimulatedRig:
             mirror_mm=b.mirror_mm, sensor_mm=q, sensor_beam=b.beam, sensor_sign="height"  # type: ignore[arg-type]
         )
 
-    def place_block(self, station: int) -> None:
-        """What the simulated technician does when asked to move the block."""
+    def place_block(self, station: int, **_: Any) -> None:
+        """What the simulated technician does when asked to move the block (any pass)."""
         self.world.place_block(station)
 
     def sensor_path(self) -> str:
@@ -126,6 +129,22 @@ def parse_faults(spec: str | None) -> FaultPlan:
     except FaultSpecError as exc:
         raise UserError(str(exc)) from exc
 
+def default_block() -> tuple[float, BlockGeometry]:
+    """Block length (mm) and set-up geometry of the default simulated rig."""
+    b = BlockSetup()
+    q = tuple(b.sensor_head_mm[i] + b.standoff_mm * b.beam[i] for i in range(3))
+    return b.length_mm, BlockGeometry(mirror_mm=b.mirror_mm, sensor_mm=q, sensor_beam=b.beam,  # type: ignore[arg-type]
+                                      sensor_sign="height")
+
+
+def _block_for(length_mm: float, geometry: BlockGeometry) -> BlockSetup:
+    """A simulated block built to match a set-up: mirror at P, sensor reading 0 at Q."""
+    standoff = BlockSetup().standoff_mm
+    head = tuple(geometry.sensor_mm[i] - standoff * geometry.sensor_beam[i] for i in range(3))
+    return BlockSetup(length_mm=length_mm, mirror_mm=geometry.mirror_mm, sensor_head_mm=head,  # type: ignore[arg-type]
+                      beam=geometry.sensor_beam, standoff_mm=standoff)
+
+
 
 def start_simulated_rig(
     *,
@@ -138,6 +157,9 @@ def start_simulated_rig(
     controller: str = "tcp",
     modbus_port: int = 0,
     sensor_link: str | Path | None = None,
+    block_length_mm: float | None = None,
+    geometry: BlockGeometry | None = None,
+    wire_time: bool = True,
 ) -> SimulatedRig:
     """Start the emulators on real transports and return their endpoints.
 
@@ -149,20 +171,33 @@ def start_simulated_rig(
     ``modbus-rtu:/dev/pts/N?...``) or ``"rtu-over-tcp"`` (RTU frames over TCP,
     driver URL ``modbus-rtu:socket://127.0.0.1:PORT``).  ``sensor_link``: a path
     kept as a symlink to the sensor's pty (stable across a ``close`` fault).
+    ``block_length_mm`` and ``geometry`` build the simulated block to match a
+    set-up file (default: :func:`default_block`).  ``wire_time=False``: the
+    sensor answers without the serial line's transfer time (zero-latency
+    emulators, for benchmarks).
     """
     if controller not in CONTROLLER_TRANSPORTS:
         raise UserError(f"controller transport {controller!r}: use one of {', '.join(CONTROLLER_TRANSPORTS)}")
     kind = sensor_emulator(sensor)
     plan = parse_faults(faults)
     baud = baudrate or kind.baudrate
-    world = World(seed=seed, noise=Noise() if noise else Noise.off())
+    sign = 1.0
+    block = None
+    if block_length_mm is not None or geometry is not None:
+        d_len, d_geo = default_block()
+        geometry = geometry or d_geo
+        block = _block_for(block_length_mm or d_len, geometry)
+        sign = 1.0 if geometry.sensor_sign == "height" else -1.0
+    world = World(seed=seed, noise=Noise() if noise else Noise.off(), block=block)
     block = world.block
 
     def sensor_value(_output: int = 1) -> float | None:
         d = world.sensor_distance_mm()
-        return None if d is None else block.standoff_mm - d  # height sign: closer -> larger
+        # height sign: the surface closer -> larger; gap sign: the opposite
+        return None if d is None else sign * (block.standoff_mm - d)
 
-    pty = PtyEndpoint(kind.factory(sensor_value, faults=plan), baudrate=baud, faults=plan, link=sensor_link)
+    pty = PtyEndpoint(kind.factory(sensor_value, faults=plan), baudrate=baud if wire_time else 0, faults=plan,
+                      link=sensor_link)
     try:
         emulator = InterferometerEmulator(world, measure_time_s=measure_time_s, faults=plan)
         if controller == "rtu-over-tcp":
@@ -178,3 +213,56 @@ def start_simulated_rig(
     controller_url = f"modbus-rtu:socket://127.0.0.1:{modbus.port}" if controller == "rtu-over-tcp" else modbus.url
     sensor_url = str(sensor_link) if sensor_link is not None else pty.path
     return SimulatedRig(world, sensor, sensor_url, controller_url, pty, modbus, baud, plan)
+
+
+@dataclass
+class SimulatedMachine:
+    """A simulated machine axis running the set-up's cycle behind a Modbus TCP interferometer controller."""
+
+    axis: MachineAxis
+    controller_url: str
+    _modbus: ModbusServerThread
+
+    def cycle_start(self, **_: Any) -> None:
+        """What the simulated technician does when asked to press Cycle Start."""
+        self.axis.cycle_start()
+
+    def close(self) -> None:
+        self._modbus.stop()
+
+
+HANDSHAKE = {"in-position": "ack", "manual": "cycle-start", "stability": "timed"}
+
+
+def _axis_errors(setup: PositioningSetup, noise: bool) -> AxisErrors:
+    sim = setup.simulation
+    if setup.axis_type == "rotary" and sim == SimulatedAxisSetup():
+        # rotary defaults (arcsec): a once-per-revolution error, a 90-tooth worm's periodic error
+        return AxisErrors(pitch=((4.0, 360.0, 0.7),), slope_per_m=0.0, backlash=2.0, periodic=1.0,
+                          periodic_period=4.0, thermal_per_m_per_h=0.0, noise=0.3 if noise else 0.0)
+    return AxisErrors(pitch=((sim.pitch_amplitude, sim.pitch_wavelength, 0.4),), slope_per_m=sim.slope_per_m,
+                      backlash=sim.backlash, periodic=sim.periodic, periodic_period=sim.periodic_period,
+                      thermal_per_m_per_h=sim.thermal_per_m_per_h, noise=sim.noise if noise else 0.0)
+
+
+def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bool = True,
+                            faults: str | None = None, start_at: int = 0) -> SimulatedMachine:
+    """Start a machine axis that runs exactly the set-up's cycle, read by a Modbus TCP controller.
+
+    The in-position handshake follows the trigger mode: the PLC waits for the tool's acknowledge
+    (in-position), for Cycle Start (manual, M00 at each target) or for the dwell time (stability).
+    ``start_at``: the program is restarted at the block of that measured stop (0-based; resume).
+    """
+    plan = parse_faults(faults)
+    stops = [MachineStop(s.position, s.target_index, s.run, s.direction) for s in setup.stops()]
+    axis = MachineAxis(stops, rotary=setup.axis_type == "rotary", errors=_axis_errors(setup, noise),
+                       feed_per_min=setup.feed_per_min, dwell_s=setup.trigger.dwell_s,
+                       handshake=HANDSHAKE[setup.trigger.mode], datum=setup.datum, seed=seed)
+    emulator = InterferometerEmulator(axis, word_order=setup.devices.word_order, faults=plan,  # type: ignore[arg-type]
+                                      extension=InPositionRegisters(axis, setup.devices.word_order))
+    if start_at:
+        measured = [k for k, s in enumerate(stops) if s.target_index]
+        axis.index = measured[min(start_at, len(measured) - 1)] - 1  # restart: the next block is that target
+        axis.commanded = stops[axis.index].position
+    modbus = ModbusServerThread(emulator.device())
+    return SimulatedMachine(axis, modbus.url, modbus)

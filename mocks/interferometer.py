@@ -8,10 +8,10 @@ the capture is taken from the :class:`~mocks.world.World`, the data registers
 are filled, the sequence counter increments and *busy* clears.  The command
 register reads 0 again as soon as a command is accepted.
 
-Extension points (for more registers, e.g. a positioning axis):
-``extra_simdata`` adds SimData blocks to the device, ``on_command`` sees every
-command code before the built-in ones, ``on_sync`` fills extra registers on
-every access.  :func:`start_controller` serves the emulator over Modbus TCP or
+Extension point (for more registers, e.g. the positioning axis of
+:mod:`mocks.machine_axis`): an ``extension`` object (:class:`EmulatorExtension`)
+adds SimData blocks, sees every command code before the built-in ones and
+fills / reacts to its registers on every access.  :func:`start_controller` serves the emulator over Modbus TCP or
 RTU (pty) and returns the running server (``.url``, ``.stop()``).
 
 Controller faults (:mod:`mocks.faults`): ``freeze-seq``, ``beam-loss``,
@@ -24,7 +24,8 @@ from __future__ import annotations
 import asyncio
 import struct
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
+from typing import Protocol
 
 from pymodbus.constants import ExcCodes
 from pymodbus.pdu.device import ModbusDeviceIdentification
@@ -36,10 +37,21 @@ from .world import World
 
 __all__ = ["InterferometerEmulator", "ModbusServerThread", "float_registers", "identity", "start_controller"]
 
-#: ``on_command(code)``: True = handled here, an ExcCodes = answer that exception, None/False = not mine.
-CommandHook = Callable[[int], "ExcCodes | bool | None"]
-#: ``on_sync(start_address, registers)``: fill extra registers in place before an access is served.
-SyncHook = Callable[[int, list[int]], None]
+
+
+class EmulatorExtension(Protocol):
+    """Extra registers and behaviour plugged into :class:`InterferometerEmulator`."""
+
+    def simdata(self) -> list[SimData]:
+        """The extra SimData blocks of the device."""
+
+    def command(self, code: int) -> ExcCodes | bool | None:
+        """A command code, before the built-in ones: True = handled here, an ExcCodes = answer
+        that exception, None/False = not mine."""
+
+    def access(self, start: int, address: int, registers: list[int], set_values: list[int] | None) -> None:
+        """Every access, after the built-in registers are up to date: fill / react in place."""
+
 
 # Register addresses (docs/modbus-map.md, version 1), holding registers, 0-based.
 REG_COMMAND, REG_STATUS, REG_SEQUENCE, REG_ERROR = 0, 1, 2, 3
@@ -75,16 +87,12 @@ class InterferometerEmulator:
         measure_time_s: float = 0.0,
         clock: Callable[[], float] = time.monotonic,
         faults: FaultPlan | None = None,
-        extra_simdata: Sequence[SimData] = (),
-        on_command: CommandHook | None = None,
-        on_sync: SyncHook | None = None,
+        extension: EmulatorExtension | None = None,
     ) -> None:
         self.world = world
+        self.extension = extension
         self.faults = faults or FaultPlan()
         self.wire_faults = WireFaults()
-        self.extra_simdata = tuple(extra_simdata)
-        self.on_command = on_command
-        self.on_sync = on_sync
         self._frozen = False
         self._beam_fault = False
         self.word_order = word_order
@@ -105,7 +113,7 @@ class InterferometerEmulator:
                 SimData(REG_STATUS, count=3, values=0, datatype=DataType.REGISTERS, readonly=True),
                 SimData(REG_POSITION, count=DATA_END - REG_POSITION, values=0,
                         datatype=DataType.REGISTERS, readonly=True),
-                *self.extra_simdata,
+                *(self.extension.simdata() if self.extension is not None else []),
             ],
             identity=identity(),
             action=self.action,
@@ -143,8 +151,8 @@ class InterferometerEmulator:
     def _command(self, cmd: int) -> ExcCodes | None:
         if cmd == 0:
             return None
-        if self.on_command is not None:
-            handled = self.on_command(cmd)
+        if self.extension is not None:
+            handled = self.extension.command(cmd)
             if isinstance(handled, ExcCodes):
                 return handled
             if handled:
@@ -169,8 +177,6 @@ class InterferometerEmulator:
         regs[REG_SEQUENCE - start] = self.sequence
         regs[REG_ERROR - start] = self.error_code
         regs[REG_POSITION - start : DATA_END - start] = self._data
-        if self.on_sync is not None:
-            self.on_sync(start, regs)
 
     async def action(
         self,
@@ -197,6 +203,8 @@ class InterferometerEmulator:
             result = self._command(int(set_values[0]))
             set_values[0] = 0  # self-clearing command register
         self._sync(start_address, current_registers)
+        if self.extension is not None:
+            self.extension.access(start_address, address, current_registers, set_values)
         return result
 
 

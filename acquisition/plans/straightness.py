@@ -1,35 +1,52 @@
 """Gauge-block straightness workflow (seed 001).
 
-Datum: the block at station 0, zero the interferometer, record the sensor's
-start reading.  Then per station k: the operator places the block at
-x = k * L against the side face; trigger the interferometer (it waits for the
-new sequence number), read the sensor (averaged) and record the point.
+1. Open the run; the operator places the block at station 0 (the datum).
+2. Warm-up (optional): interferometer and sensor readings every ``interval_s``
+   until their peak-to-peak drift over a window stays below the limits; after
+   ``timeout_s`` the operator waits on, overrides (recorded) or aborts.
+3. Datum: zero the interferometer; station 0's averaged sensor reading is the
+   start reading.
+4. Per step (pass, station): the operator places the block at x = k * L against
+   the side face and answers ``capture`` (or ``redo`` the previous step,
+   ``skip`` this one, ``pause``, ``abort``).  Capture = triggered interferometer
+   reading + averaged sensor reading, validated (status flags, finite values,
+   sensor stability, plausible ranges; retried up to ``capture_attempts`` times,
+   then the operator decides), then a jump check against the previous step
+   (the operator accepts or redoes), then the point is recorded and the
+   progress written.
+5. Optional return pass: the same stations backwards (``pass`` = 1).
+
+A resumed run (:class:`ResumePoint`) skips 1-3 and continues after the last
+completed step; the interferometer datum must not have been reset meanwhile.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Generator
+from dataclasses import dataclass, field
 from typing import Any
 
 from drivers.readings import AveragedDisplacement, InterferometerReading
 
-from ..errors import UserError
 from ..messages import (
+    Annotate,
     CloseRun,
     Instruct,
     Log,
     Message,
     OpenRun,
+    Prompt,
     ReadSensor,
     Record,
+    Retract,
     TriggerInterferometer,
+    Wait,
     ZeroInterferometer,
 )
-from ..setup import StraightnessSetup
+from ..setup import StraightnessSetup, ValidationSetup, WarmupSetup
 
-
-class CaptureRejected(UserError):
-    """A reading failed validation."""
+Step = tuple[int, int]  # (pass, station)
 
 
 def point_record(
@@ -56,43 +73,231 @@ def point_record(
     }
 
 
-def _check(ifm: InterferometerReading, sensor: AveragedDisplacement, k: int) -> None:
+def capture_problem(ifm: InterferometerReading, sensor: AveragedDisplacement, k: int, x_mm: float,
+                    v: ValidationSetup) -> str | None:
+    """Why a capture at station k cannot be used (one line), or None if it passes every check."""
     if not ifm.ok:
         st = ifm.status
-        raise CaptureRejected(
-            f"station {k}: interferometer data not valid (beam OK={st.beam_ok}, error={st.error_code} "
-            f"{st.error_text}); check the beam and retry"
-        )
+        return (f"station {k}: interferometer data not valid (beam OK={st.beam_ok}, error={st.error_code} "
+                f"{st.error_text}); check the beam")
     if not sensor.ok:
         bad = ", ".join(s.value for s in sensor.statuses) or "no valid sample"
-        raise CaptureRejected(
-            f"station {k}: displacement sensor reading invalid ({bad}); check the sensor range and target"
-        )
+        return f"station {k}: displacement sensor reading invalid ({bad}); check the sensor range and target"
+    env = (ifm.air_temp_c, ifm.air_pressure_hpa, ifm.humidity_pct, ifm.material_temp_c)
+    if not all(math.isfinite(e) for e in env):
+        return f"station {k}: environment values not finite; check the environment sensors"
+    if sensor.count > 1 and sensor.std_mm * 1000.0 > v.max_sensor_std_um:
+        return (f"station {k}: sensor not stable (std {sensor.std_mm * 1000:.2f} um over {sensor.count} "
+                f"samples, limit {v.max_sensor_std_um:g} um); keep the block still")
+    lo, hi = v.sensor_range_mm
+    if not lo <= sensor.mean_mm <= hi:
+        return f"station {k}: sensor reading {sensor.mean_mm:+.4f} mm outside the plausible range [{lo:g}, {hi:g}] mm"
+    for name in ("stry_um", "strz_um"):
+        if abs(getattr(ifm, name)) > v.max_straightness_um:
+            return f"station {k}: {name} = {getattr(ifm, name):+.1f} um beyond +/-{v.max_straightness_um:g} um"
+    for name in ("pitch_urad", "yaw_urad", "roll_urad"):
+        if abs(getattr(ifm, name)) > v.max_angle_urad:
+            return f"station {k}: {name} = {getattr(ifm, name):+.1f} urad beyond +/-{v.max_angle_urad:g} urad"
+    lin_um = (ifm.position_mm - x_mm) * 1000.0
+    if abs(lin_um) > v.max_lin_um:
+        return (f"station {k}: block at {ifm.position_mm:.3f} mm, {lin_um:+.0f} um from x = {x_mm:g} mm "
+                f"(limit {v.max_lin_um:g} um); is it at the right station?")
+    return None
 
 
-def straightness_plan(setup: StraightnessSetup, metadata: dict[str, Any]) -> Generator[Message, Any, None]:
-    """Yield the messages of a complete straightness run."""
-    t0 = yield OpenRun("straightness", metadata)
-    yield Instruct(
-        "place_block",
-        "Place the block at station 0 (x = 0 mm), against the side face; then confirm.",
-        {"station": 0},
-    )
-    yield ZeroInterferometer()
-    start = yield ReadSensor(setup.samples_per_reading)
-    yield Log(f"datum set; sensor start reading {start.mean_mm:+.5f} mm")
-    for k in range(setup.stations):
-        x = setup.station_x_mm(k)
-        if k > 0:
-            yield Instruct(
-                "place_block",
-                f"Move the block to station {k} (x = {x:g} mm), against the side face; then confirm.",
-                {"station": k},
-            )
+def jump_problem(row: dict[str, Any], prev: dict[str, Any] | None, v: ValidationSetup) -> str | None:
+    """A step change against the previous step's point larger than the limits, or None."""
+    if prev is None:
+        return None
+    d_ifm = max(abs(row["stry_um"] - prev["stry_um"]), abs(row["strz_um"] - prev["strz_um"]))
+    d_sensor = abs(row["sensor_mm"] - prev["sensor_mm"]) * 1000.0
+    where = f"station {row['station']} (pass {row['pass']}) vs station {prev['station']} (pass {prev['pass']})"
+    if d_ifm > v.jump_ifm_um:
+        return f"{where}: straightness jumped by {d_ifm:.1f} um (limit {v.jump_ifm_um:g} um)"
+    if d_sensor > v.jump_sensor_um:
+        return f"{where}: sensor jumped by {d_sensor:.1f} um (limit {v.jump_sensor_um:g} um)"
+    return None
+
+
+@dataclass(frozen=True)
+class ResumePoint:
+    """Where an interrupted run continues: its uid, start time and what is already done."""
+
+    uid: str
+    t0: float
+    next_index: int  # index into StraightnessSetup.steps()
+    points: dict[Step, dict[str, Any]] = field(default_factory=dict)
+    skipped: tuple[dict[str, Any], ...] = ()
+
+
+def resume_point(meta: dict[str, Any], rows: list[dict[str, Any]], steps: list[Step]) -> ResumePoint:
+    """Work out the resume point from run.json and the points on disk.
+
+    The points are the authority (each is fsynced before the run moves on); run.json's
+    ``skipped`` adds the steps skipped without a point.
+    """
+    index = {s: i for i, s in enumerate(steps)}
+    points = {(int(r["pass"]), int(r["station"])): r for r in rows}
+    skipped = tuple(meta.get("skipped", []))
+    done = [index[s] for s in points if s in index]
+    done += [index[(int(s["pass"]), int(s["station"]))] for s in skipped
+             if (int(s["pass"]), int(s["station"])) in index]
+    t0 = float(meta.get("start_time_s", 0.0))
+    return ResumePoint(str(meta.get("uid", "")), t0, max(done, default=-1) + 1, points, skipped)
+
+
+def warmup(w: WarmupSetup, samples: int) -> Generator[Message, Any, dict[str, Any]]:
+    """Watch interferometer and sensor drift until stable or overridden; return run.json ``warmup``."""
+    ifm_hist: list[tuple[float, float]] = []
+    sen_hist: list[float] = []
+    elapsed = since_prompt = 0.0
+    drift_ifm = drift_sensor = math.nan
+    yield Log(f"warm-up: waiting for drift below {w.max_drift_ifm_um:g} um (interferometer) and "
+              f"{w.max_drift_sensor_um:g} um (sensor) over {w.window} readings")
+    while True:
         ifm = yield TriggerInterferometer()
-        sensor = start if k == 0 else (yield ReadSensor(setup.samples_per_reading))
-        _check(ifm, sensor, k)
-        yield Record(point_record(k, x, t0, ifm, sensor))
-        yield Log(f"station {k:3d}  x = {x:8.1f} mm  stry = {ifm.stry_um:+8.3f} um  "
+        sen = yield ReadSensor(samples)
+        if ifm.ok and sen.ok:
+            ifm_hist.append((ifm.stry_um, ifm.strz_um))
+            sen_hist.append(sen.mean_mm * 1000.0)
+        if len(sen_hist) >= w.window:
+            win_i, win_s = ifm_hist[-w.window:], sen_hist[-w.window:]
+            drift_ifm = max(max(c) - min(c) for c in zip(*win_i, strict=True))
+            drift_sensor = max(win_s) - min(win_s)
+            if drift_ifm <= w.max_drift_ifm_um and drift_sensor <= w.max_drift_sensor_um:
+                stable, overridden = True, False
+                break
+        if since_prompt >= w.timeout_s:
+            answer = yield Prompt(
+                f"Warm-up not stable after {elapsed:.0f} s (drift {drift_ifm:.2f} um interferometer, "
+                f"{drift_sensor:.2f} um sensor). Keep waiting, override (recorded in the run) or abort?",
+                ("wait", "override", "abort"), default="wait", key="warmup")
+            if answer == "override":
+                stable, overridden = False, True
+                break
+            since_prompt = 0.0
+        waited = yield Wait(w.interval_s)
+        elapsed += waited
+        since_prompt += max(waited, w.interval_s)  # count planned time so a zero-latency run still times out
+    drift = {"ifm_um": drift_ifm, "sensor_um": drift_sensor, "window": w.window, "readings": len(sen_hist)}
+    drift = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in drift.items()}
+    yield Log(f"warm-up {'stable' if stable else 'overridden by the operator'} after {elapsed:.0f} s")
+    return {"stable": stable, "overridden": overridden, "duration_s": elapsed, "drift": drift}
+
+
+def _sentence(text: str) -> str:
+    return text if text.endswith((".", "?", "!")) else text + "."
+
+
+def _place_text(p: int, k: int, x: float, first_return: bool) -> str:
+    if first_return:
+        return (f"Return pass: leave the block at station {k} (x = {x:g} mm), against the side face; "
+                f"capture when it is still.")
+    where = "Return pass: move" if p == 1 else "Move"
+    return f"{where} the block to station {k} (x = {x:g} mm), against the side face; capture when it is still."
+
+
+def _capture(setup: StraightnessSetup, k: int, x: float) -> Generator[Message, Any, tuple | None]:
+    """Trigger + averaged sensor reading, validated; None if the operator skips the station."""
+    v = setup.validation
+    attempt = 0
+    while True:
+        ifm = yield TriggerInterferometer()
+        sensor = yield ReadSensor(setup.samples_per_reading)
+        problem = capture_problem(ifm, sensor, k, x, v)
+        if problem is None:
+            return ifm, sensor
+        attempt += 1
+        yield Log(f"{problem} (attempt {attempt} of {v.capture_attempts})")
+        if attempt < v.capture_attempts:
+            continue
+        answer = yield Prompt(f"{_sentence(problem)} Retry the capture, skip this station (recorded), or abort?",
+                              ("retry", "skip", "abort"), default="retry", key="invalid", fault=problem)
+        if answer == "skip":
+            return None
+        attempt = 0
+
+
+def straightness_plan(setup: StraightnessSetup, metadata: dict[str, Any],
+                      resume: ResumePoint | None = None) -> Generator[Message, Any, None]:
+    """Yield the messages of a complete (or resumed) straightness run."""
+    steps = setup.steps()
+    points: dict[Step, dict[str, Any]] = {}
+    skipped: list[dict[str, Any]] = []
+    if resume is None:
+        t0 = yield OpenRun("straightness", metadata)
+        yield Annotate("start_time_s", t0)
+        yield Instruct("place_block",
+                       "Place the block at station 0 (x = 0 mm), against the side face; then confirm.",
+                       {"station": 0, "pass": 0}, key="datum")
+        if setup.warmup.enabled:
+            yield Annotate("warmup", (yield from warmup(setup.warmup, setup.samples_per_reading)))
+        yield ZeroInterferometer()
+        yield Log("datum set: interferometer zeroed at station 0")
+        i = 0
+    else:
+        yield OpenRun("straightness", metadata, resume_uid=resume.uid)
+        t0, i = resume.t0, resume.next_index
+        points.update(resume.points)
+        skipped.extend(resume.skipped)
+        if i < len(steps):
+            p, k = steps[i]
+            yield Prompt(f"Resuming the run at station {k} (pass {p}), {len(points)} points on disk. The "
+                         f"interferometer must not have been re-zeroed since the run started. Continue?",
+                         ("continue", "abort"), key="resume")
+    jump_redos = 0
+    while i < len(steps):
+        p, k = steps[i]
+        x = setup.station_x_mm(k)
+        if (p, k) != (0, 0):
+            can_redo = i > 1  # the datum station is never redone (it would move the datum)
+            choices = ("capture", "redo", "skip", "pause", "abort") if can_redo else ("capture", "skip", "pause",
+                                                                                      "abort")
+            first_return = p == 1 and k == setup.stations - 1
+            answer = yield Instruct("place_block", _place_text(p, k, x, first_return), {"station": k, "pass": p},
+                                    choices=choices, key="station")
+            if answer == "redo":
+                pp, pk = steps[i - 1]
+                if (pp, pk) in points:
+                    yield Retract({"station": pk, "pass": pp})
+                    del points[(pp, pk)]
+                skipped = [s for s in skipped if (s["pass"], s["station"]) != (pp, pk)]
+                yield Annotate("skipped", list(skipped))
+                yield Log(f"redo: back to station {pk} (pass {pp})")
+                i -= 1
+                continue
+            if answer == "skip":
+                skipped.append({"station": k, "pass": p, "reason": "skipped by the operator"})
+                yield Annotate("skipped", list(skipped))
+                yield Annotate("progress", {"pass": p, "station": k})
+                yield Log(f"station {k} (pass {p}) skipped")
+                i += 1
+                continue
+        got = yield from _capture(setup, k, x)
+        if got is None:
+            skipped.append({"station": k, "pass": p, "reason": "capture failed validation; skipped"})
+            yield Annotate("skipped", list(skipped))
+            yield Annotate("progress", {"pass": p, "station": k})
+            i += 1
+            continue
+        ifm, sensor = got
+        row = point_record(k, x, t0, ifm, sensor, p)
+        jump = jump_problem(row, points.get(steps[i - 1]) if i > 0 else None, setup.validation)
+        if jump is not None:
+            redo_default = jump_redos < setup.validation.capture_attempts
+            answer = yield Prompt(f"{_sentence(jump)} Redo the capture or accept the reading?",
+                                  ("redo", "accept", "abort"),
+                                  default="redo" if redo_default else "accept", key="jump")
+            if answer == "redo":
+                jump_redos += 1
+                continue
+            yield Log(f"jump accepted by the operator: {jump}")
+        jump_redos = 0
+        yield Record(row)
+        points[(p, k)] = row
+        yield Annotate("progress", {"pass": p, "station": k})
+        yield Log(f"station {k:3d}{' (return)' if p else ''}  x = {x:8.1f} mm  stry = {ifm.stry_um:+8.3f} um  "
                   f"sensor = {sensor.mean_mm:+.5f} mm")
-    yield CloseRun("all stations captured")
+        i += 1
+    n_skip = len(skipped)
+    yield CloseRun("all stations captured" + (f" ({n_skip} skipped)" if n_skip else ""))

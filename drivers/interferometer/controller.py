@@ -81,8 +81,14 @@ class InterferometerController:
         self._link.close()
 
     # -- low level ----------------------------------------------------------------------
-    def _read(self, address: int, count: int) -> list[int]:
+    def read_registers(self, address: int, count: int) -> list[int]:
+        """Read ``count`` holding registers at ``address`` (map extensions such as the in-position block)."""
         return self._link.read_holding(address, count)
+
+    def write_register(self, address: int, value: int, *, what: str = "") -> None:
+        """Write one holding register (map extensions such as the in-position acknowledge)."""
+        self._link.write_register(address, value, what=what or f"write register {address}")
+
 
     def _write_command(self, name: str) -> None:
         code = self.map.commands[name]
@@ -92,7 +98,7 @@ class InterferometerController:
     def read_status(self) -> ControllerStatus:
         """Read status word, sequence counter and error code (one request)."""
         start, count = self.map.span("status", "error_code")
-        status, seq, err = self._read(start, count)
+        status, seq, err = self.read_registers(start, count)
         return decode_status(status, seq, err, self.map)
 
     def _wait(self, done: Callable[[ControllerStatus], bool], what: str) -> ControllerStatus:
@@ -130,7 +136,7 @@ class InterferometerController:
         """Read the data block; accept it if the sequence counter did not move meanwhile."""
         start, count = self.map.span("position_mm", "material_temp_c")
         for _ in range(3):
-            regs = self._read(start, count)
+            regs = self.read_registers(start, count)
             after = self.read_status()
             if after.sequence == st.sequence:
                 values = decode_block(regs, start, CHANNELS + ENVIRONMENT, self.map, self.word_order)

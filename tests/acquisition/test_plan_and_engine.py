@@ -37,7 +37,7 @@ def setup(n: int = 3) -> StraightnessSetup:
 def test_plan_message_sequence() -> None:
     plan = straightness_plan(setup(3), {})
     msgs = []
-    replies = {m.OpenRun: 1000.0, m.ReadSensor: sensor(0.01), m.Instruct: "done"}
+    replies = {m.OpenRun: 1000.0, m.ReadSensor: sensor(0.01), m.Instruct: "capture"}
     reply = None
     seq = 0
     while True:
@@ -49,12 +49,14 @@ def test_plan_message_sequence() -> None:
         if isinstance(msg, m.TriggerInterferometer):
             seq += 1
             reply = ifm(100.0 * (seq - 1) + 0.001, seq)
+        elif isinstance(msg, m.Instruct) and msg.key == "datum":
+            reply = "done"
         else:
             reply = replies.get(type(msg))
-    kinds = [type(x).__name__ for x in msgs if not isinstance(x, m.Log)]
+    kinds = [type(x).__name__ for x in msgs if not isinstance(x, m.Log | m.Annotate)]
     assert kinds == [
-        "OpenRun", "Instruct", "ZeroInterferometer", "ReadSensor",
-        "TriggerInterferometer", "Record",
+        "OpenRun", "Instruct", "ZeroInterferometer",
+        "TriggerInterferometer", "ReadSensor", "Record",
         "Instruct", "TriggerInterferometer", "ReadSensor", "Record",
         "Instruct", "TriggerInterferometer", "ReadSensor", "Record",
         "CloseRun",
@@ -62,10 +64,13 @@ def test_plan_message_sequence() -> None:
     instructs = [x for x in msgs if isinstance(x, m.Instruct)]
     assert [i.params["station"] for i in instructs] == [0, 1, 2]
     assert "x = 200 mm" in instructs[2].text and "side face" in instructs[2].text
+    assert instructs[2].choices[0] == "capture" and "skip" in instructs[2].choices
     records = [x.data for x in msgs if isinstance(x, m.Record)]
     assert [r["x_mm"] for r in records] == [0.0, 100.0, 200.0]
     assert records[2]["lin_um"] == pytest.approx(1.0)  # 200.001 mm - 200 mm
     assert records[0]["sensor_mm"] == 0.01 and records[1]["time_s"] == pytest.approx(2.0)
+    progress = [x.value for x in msgs if isinstance(x, m.Annotate) and x.key == "progress"]
+    assert progress == [{"pass": 0, "station": k} for k in range(3)]
 
 
 class FakeController:
@@ -104,6 +109,9 @@ class Collector:
     def names(self) -> list[str]:
         return [n for n, _ in self.docs]
 
+    def of(self, name: str) -> list[dict]:
+        return [d for n, d in self.docs if n == name]
+
 
 def engine(controller: FakeController, operator=None) -> tuple[RunEngine, Collector]:
     col = Collector()
@@ -115,8 +123,9 @@ def test_complete_run_emits_start_events_stop() -> None:
     eng, col = engine(FakeController())
     out = eng.run(straightness_plan(setup(4), {"machine": "m1"}))
     assert out.exit_status == "success" and out.num_events == 4
-    assert col.names() == ["start"] + ["event"] * 4 + ["stop"]
-    assert col.docs[0][1]["machine"] == "m1" and col.docs[-1][1]["exit_status"] == "success"
+    assert [n for n in col.names() if n in ("start", "event", "stop")] == ["start"] + ["event"] * 4 + ["stop"]
+    assert col.of("start")[0]["machine"] == "m1" and col.of("stop")[0]["exit_status"] == "success"
+    assert [d["state"] for d in col.of("state")] == ["running", "stopping", "idle"]
     assert eng.state is RunState.IDLE
     assert eng.state_log == [RunState.IDLE, RunState.RUNNING, RunState.STOPPING, RunState.IDLE]
 
@@ -124,12 +133,12 @@ def test_complete_run_emits_start_events_stop() -> None:
 def test_operator_abort_keeps_data_and_ends_as_abort() -> None:
     class AbortAtStation2(AutoOperator):
         def instruct(self, msg: m.Instruct) -> str:
-            return "abort" if msg.params.get("station") == 2 else "done"
+            return "abort" if msg.params.get("station") == 2 else msg.choices[0]
 
     eng, col = engine(FakeController(), AbortAtStation2())
     out = eng.run(straightness_plan(setup(5), {}))
     assert out.exit_status == "abort" and out.num_events == 2
-    assert col.names() == ["start", "event", "event", "stop"]
+    assert [n for n in col.names() if n in ("start", "event", "stop")] == ["start", "event", "event", "stop"]
     assert eng.state_log[-2:] == [RunState.ABORTING, RunState.IDLE]
 
 
@@ -142,12 +151,15 @@ def test_device_fault_fails_the_run_and_cleanup_runs() -> None:
         finally:
             closed.append(True)
 
-    eng, col = engine(FakeController(fail_at=3))
+    eng, col = engine(FakeController(fail_at=3))  # fails at every trigger from the 4th on
     out = eng.run(plan())
     assert out.exit_status == "fail" and "did not complete" in out.reason
-    assert out.num_events == 3 and col.names()[-1] == "stop"
+    assert out.num_events == 3 and [n for n in col.names() if n != "state"][-1] == "stop"
     assert closed == [True]
-    assert eng.state_log[-2:] == [RunState.FAILED, RunState.IDLE]
+    # the fault paused the run; the automatic operator retried once, then gave up
+    assert eng.state_log[-5:] == [RunState.PAUSED, RunState.RUNNING, RunState.PAUSED, RunState.FAILED,
+                                  RunState.IDLE]
+    assert len(eng.faults) == 2
 
 
 def test_abort_request_from_another_thread_is_honoured() -> None:
@@ -157,7 +169,7 @@ def test_abort_request_from_another_thread_is_honoured() -> None:
         def instruct(self, msg: m.Instruct) -> str:
             if msg.params.get("station") == 1:
                 eng.request_abort()
-            return "done"
+            return msg.choices[0]
 
     eng.operator = AbortOperator()
     out = eng.run(straightness_plan(setup(5), {}))

@@ -108,3 +108,53 @@ def test_bad_run_directories_give_one_line_errors(tmp_path: Path, mutate, messag
 def test_missing_directory(tmp_path: Path) -> None:
     with pytest.raises(RunFormatError, match="no such run directory"):
         load_run(tmp_path / "nope")
+
+
+def test_annotate_replaces_run_json_keys(tmp_path: Path) -> None:
+    store = RunStore(tmp_path / "r", {})
+    start(store)
+    store("annotate", {"key": "progress", "value": {"pass": 0, "station": 4}})
+    store("annotate", {"key": "skipped", "value": [{"station": 2, "pass": 0, "reason": "r"}]})
+    store.close()
+    meta = json.loads((tmp_path / "r" / "run.json").read_text())
+    assert meta["progress"] == {"pass": 0, "station": 4} and meta["skipped"][0]["station"] == 2
+
+
+def test_retract_withdraws_the_last_matching_point(tmp_path: Path) -> None:
+    store = RunStore(tmp_path / "r", {})
+    start(store)
+    for k in range(3):
+        store("event", {"data": point(k)})
+    store("retract", {"match": {"station": 2, "pass": 0}})
+    store("event", {"data": {**point(2), "stry_um": 9.0}})  # the redone capture
+    store("stop", {"exit_status": "success"})
+    loaded = load_run(tmp_path / "r")
+    assert loaded.points["station"].tolist() == [0, 1, 2]
+    assert loaded.points["stry_um"].tolist() == [0.0, 0.5, 9.0]
+    assert loaded.meta["points"] == 3
+
+
+def test_resume_cuts_a_partial_line_and_appends(tmp_path: Path) -> None:
+    run = tmp_path / "r"
+    store = RunStore(run, {"machine": "M"})
+    start(store)
+    for k in range(2):
+        store("event", {"data": point(k)})
+    store.close()
+    with open(run / "points.csv", "a") as f:
+        f.write("2,200.0,1.0")  # killed in the middle of writing station 2
+    resumed = RunStore.for_resume(run)
+    assert resumed.points_written == 2 and [int(p["station"]) for p in resumed.loaded_points] == [0, 1]
+    resumed("start", {"uid": "u1", "kind": "straightness", "resume": True})
+    resumed("event", {"data": point(2)})
+    resumed("stop", {"exit_status": "success", "reason": "done"})
+    loaded = load_run(run)
+    assert loaded.warnings == () and loaded.points["station"].tolist() == [0, 1, 2]
+    assert loaded.meta["status"] == "complete" and loaded.meta["points"] == 3 and loaded.meta["uid"] == "u1"
+    assert loaded.meta["machine"] == "M" and loaded.meta["resumed"][0]["points"] == 2
+
+
+def test_a_complete_run_is_not_resumed(tmp_path: Path) -> None:
+    run = make_run(tmp_path)
+    with pytest.raises(RunFormatError, match="already complete"):
+        RunStore.for_resume(run)

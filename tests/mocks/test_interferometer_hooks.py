@@ -1,5 +1,5 @@
-"""Extension points of the controller emulator (extra registers, command and
-sync hooks), exercised through a real Modbus TCP request."""
+"""The extension point of the controller emulator (extra registers, command
+hook, per-access hook), exercised through real Modbus TCP requests."""
 
 from __future__ import annotations
 
@@ -13,23 +13,34 @@ from mocks.interferometer import InterferometerEmulator, start_controller
 from mocks.world import Noise, World
 
 
-def test_extra_registers_and_hooks() -> None:
-    seen: list[int] = []
+class Extension:
+    def __init__(self) -> None:
+        self.seen: list[int] = []
+        self.written: list[int] = []
 
-    def on_command(code: int) -> ExcCodes | bool | None:
-        seen.append(code)
+    def simdata(self) -> list[SimData]:
+        return [SimData(200, count=2, values=0, datatype=DataType.REGISTERS, readonly=True),
+                SimData(202, values=0, datatype=DataType.REGISTERS)]
+
+    def command(self, code: int) -> ExcCodes | bool | None:
+        self.seen.append(code)
         if code == 7:
             return True
         if code == 8:
             return ExcCodes.DEVICE_BUSY
         return None
 
-    def on_sync(start: int, regs: list[int]) -> None:
-        regs[200 - start] = len(seen)
+    def access(self, start: int, address: int, registers: list[int], set_values: list[int] | None) -> None:
+        if set_values is not None and address == 202:
+            self.written.append(int(set_values[0]))
+        if start <= 200 < start + len(registers):
+            registers[200 - start] = len(self.seen)
 
-    emu = InterferometerEmulator(World(noise=Noise.off()), extra_simdata=[
-        SimData(200, count=2, values=0, datatype=DataType.REGISTERS, readonly=True)],
-        on_command=on_command, on_sync=on_sync)
+
+def test_extra_registers_and_hooks() -> None:
+    ext = Extension()
+    seen = ext.seen
+    emu = InterferometerEmulator(World(noise=Noise.off()), extension=ext)
     server = start_controller(emu)
     link = ModbusLink(server.url, timeout_s=0.5)
     try:
@@ -41,6 +52,8 @@ def test_extra_registers_and_hooks() -> None:
         assert seen == [7, 8, 1]
         assert link.read_holding(200, 2) == [3, 0]
         assert link.read_holding(2, 1) == [1]  # sequence counter: one completed trigger
+        link.write_register(202, 42)
+        assert ext.written == [42]
     finally:
         link.close()
         server.stop()

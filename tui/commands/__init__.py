@@ -12,6 +12,8 @@ from importlib import import_module
 # Order = order in ``guideway --help``.
 COMMAND_MODULES = (
     "demo",
+    "acquire",
+    "gcode",
     "process",
     "import_data",
     "air_index",

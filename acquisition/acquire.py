@@ -1,0 +1,224 @@
+"""``guideway acquire straightness``: one run from set-up to run directory.
+
+Opens the devices (real endpoints from the set-up, or simulated ones on real
+transports with ``simulate``), picks the operator (plain terminal, or the
+automatic simulated technician), and runs the straightness plan with the run
+store subscribed.  ``resume`` continues an interrupted run in the same
+directory after its last completed step.  ``guideway demo`` is a thin call
+into :func:`run_straightness`.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, TextIO
+
+from . import inposition  # noqa: F401 - registers the in-position message handlers
+from .engine import RunEngine, RunOutcome
+from .errors import SetupError, UserError
+from .live import LiveProfile
+from .operators import AutoOperator, Operator, TerminalOperator
+from .plans.positioning import positioning_plan, positioning_resume_point
+from .plans.straightness import ResumePoint, resume_point, straightness_plan
+from .positioning_setup import PositioningSetup, positioning_setup_from_dict
+from .rig import open_controller_rig, open_rig
+from .runstore import RunStore
+from .setup import DeviceSetup, StraightnessSetup, straightness_setup_from_run
+from .simulation import SimulatedMachine, SimulatedRig, start_simulated_machine, start_simulated_rig
+
+
+@dataclass(frozen=True)
+class SimOptions:
+    """A simulated rig: world seed, instrument noise on/off, injected faults (mocks/faults.py)."""
+
+    seed: int = 0
+    noise: bool = True
+    faults: str | None = None
+    wire_time: bool = True  # False: zero-latency emulators (benchmarks)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"seed": self.seed, "noise": self.noise}
+
+
+@dataclass(frozen=True)
+class AcquireResult:
+    run_dir: Path
+    outcome: RunOutcome
+    setup: StraightnessSetup
+    sim: SimulatedRig | None  # stopped; its world stays readable (ground truth for tests)
+    faults: tuple[str, ...] = ()  # device faults met during the run (recovered or not)
+    live: LiveProfile | None = None  # the heights computed while the run went on
+
+
+def _operator(given: Operator | None, actions: dict[str, Any], auto: bool, stdin: TextIO, stream: TextIO
+              ) -> Operator:
+    """The operator of a run; a given one (tests, the TUI) also gets the simulated physical actions."""
+    if given is None:
+        return AutoOperator(actions, log_to=stream) if auto else TerminalOperator(stdin, stream, actions)
+    own = getattr(given, "actions", None)
+    if isinstance(own, dict):
+        given.actions = {**actions, **own}  # type: ignore[attr-defined]
+    return given
+
+
+def _open_store(setup: StraightnessSetup | None, out: Path, resume: bool
+                ) -> tuple[RunStore, StraightnessSetup, ResumePoint | None]:
+    if not resume:
+        if setup is None:
+            raise SetupError("a new run needs --setup SETUP.toml")
+        store = RunStore(out, setup.header())
+        store.prepare()
+        return store, setup, None
+    store = RunStore.for_resume(out)
+    if store.meta.get("kind") != "straightness":
+        raise UserError(f"{out}: a {store.meta.get('kind')} run; resume it with guideway acquire "
+                        f"{store.meta.get('kind')}")
+    stored = straightness_setup_from_run(store.meta)
+    if setup is not None and setup.to_run_setup() | {"devices": {}} != stored.to_run_setup() | {"devices": {}}:
+        raise SetupError(f"{out}: --setup differs from the set-up the run was started with; "
+                         "resume without --setup (device endpoints may differ)")
+    if setup is not None:  # only the device endpoints may change (a different port after a reboot)
+        stored = replace(stored, devices=setup.devices)
+    rp = resume_point(store.meta, store.loaded_points, stored.steps())
+    return store, stored, rp
+
+
+def run_straightness(
+    setup: StraightnessSetup | None,
+    out: Path | str,
+    *,
+    simulate: SimOptions | None = None,
+    auto: bool = False,
+    resume: bool = False,
+    stream: TextIO = sys.stdout,
+    stdin: TextIO = sys.stdin,
+    operator: Operator | None = None,
+) -> AcquireResult:
+    """Acquire (or resume) a straightness run into ``out``; progress goes to ``stream``.
+
+    ``operator`` overrides the operator chosen by ``auto`` (tests and the TUI).
+    """
+    out = Path(out)
+    store, setup, rp = _open_store(setup, out, resume)
+    if simulate is not None and resume and "simulation" in store.meta:
+        stored = store.meta["simulation"]  # the same simulated world the run started with
+        simulate = SimOptions(int(stored["seed"]), bool(stored["noise"]), simulate.faults, simulate.wire_time)
+    sim = None
+    if simulate is not None:
+        sim = start_simulated_rig(seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
+                                  block_length_mm=setup.block_length_mm, geometry=setup.geometry,
+                                  wire_time=simulate.wire_time)
+        devices = DeviceSetup(sim.sensor_protocol, sim.sensor_url, 115200, sim.controller_url,
+                              setup.devices.word_order)
+        print(f"simulated sensor     : {sim.sensor_protocol} on {sim.sensor_url}", file=stream)
+        print(f"simulated controller : {sim.controller_url}", file=stream)
+    else:
+        devices = setup.devices
+        if not devices.sensor_url:
+            raise SetupError("[sensor] port is missing in the setup; give the sensor's serial port or use --simulate")
+        if not devices.controller_url:
+            raise SetupError("[controller] url is missing in the setup; give the controller's address "
+                             "or use --simulate")
+    try:
+        rig = open_rig(devices.sensor_protocol, devices.sensor_url, devices.controller_url,
+                       baudrate=devices.sensor_baud, word_order=devices.word_order)
+        try:
+            if rp is None:
+                store.header["instruments"] = rig.instruments()
+                if simulate is not None:
+                    store.header["simulation"] = simulate.to_dict()
+            actions = {"place_block": sim.place_block} if sim is not None else {}
+            operator = _operator(operator, actions, auto, stdin, stream)
+            def show(p: int, k: int, h: float) -> None:
+                print(f"  live: station {k}{' (return)' if p else ''} surface height {h:+.3f} um", file=stream)
+
+            first = store.loaded_points[0] if rp is not None and store.loaded_points else None
+            live = LiveProfile(setup.geometry, show, first)
+            engine = RunEngine(rig, operator, (store, live))
+            outcome = engine.run(straightness_plan(setup, {}, resume=rp))
+        finally:
+            rig.close()
+    finally:
+        if sim is not None:
+            sim.close()
+    print(f"run {outcome.exit_status}: {store.points_written} points in {out}"
+          + (f" ({outcome.reason})" if outcome.reason else ""), file=stream)
+    return AcquireResult(out, outcome, setup, sim, tuple(engine.faults), live)
+
+
+@dataclass(frozen=True)
+class PositioningResult:
+    run_dir: Path
+    outcome: RunOutcome
+    setup: PositioningSetup
+    sim: SimulatedMachine | None  # stopped; its axis stays readable (ground truth for tests)
+    faults: tuple[str, ...] = ()
+
+
+def run_positioning(
+    setup: PositioningSetup | None,
+    out: Path | str,
+    *,
+    simulate: SimOptions | None = None,
+    auto: bool = False,
+    resume: bool = False,
+    setup_source: dict[str, Any] | None = None,
+    stream: TextIO = sys.stdout,
+    stdin: TextIO = sys.stdin,
+    operator: Operator | None = None,
+) -> PositioningResult:
+    """Acquire (or resume) an ISO 230-2 positioning run into ``out``.
+
+    ``setup_source`` is the set-up file's TOML structure, kept in run.json so a resume rebuilds
+    exactly the same set-up (targets included).
+    """
+    out = Path(out)
+    rp = None
+    if resume:
+        store = RunStore.for_resume(out)
+        if store.meta.get("kind") != "positioning":
+            raise UserError(f"{out}: a {store.meta.get('kind')} run; resume it with guideway acquire "
+                            f"{store.meta.get('kind')}")
+        if setup is None:
+            if "setup_source" not in store.meta:
+                raise SetupError(f"{out}: run.json holds no setup_source; resume with --setup")
+            setup = positioning_setup_from_dict(store.meta["setup_source"], f"{out}/run.json setup_source")
+        rp = positioning_resume_point(store.meta, store.loaded_points, setup.measured_stops())
+    else:
+        if setup is None:
+            raise SetupError("a new run needs --setup SETUP.toml")
+        store = RunStore(out, {**setup.header(), **({"setup_source": setup_source} if setup_source else {})})
+        store.prepare()
+    if simulate is not None and resume and "simulation" in store.meta:
+        stored = store.meta["simulation"]
+        simulate = SimOptions(int(stored["seed"]), bool(stored["noise"]), simulate.faults)
+    sim = None
+    url = setup.devices.controller_url
+    if simulate is not None:
+        sim = start_simulated_machine(setup, seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
+                                      start_at=rp.next_index if rp is not None else 0)
+        url = sim.controller_url
+        print(f"simulated machine axis {setup.axis_name} ({setup.trigger.mode} trigger) behind {url}", file=stream)
+    elif not url:
+        raise SetupError("[controller] url is missing in the setup; give the controller's address or use --simulate")
+    try:
+        rig = open_controller_rig(url, word_order=setup.devices.word_order)
+        try:
+            if rp is None:
+                store.header["instruments"] = rig.instruments()
+                if simulate is not None:
+                    store.header["simulation"] = simulate.to_dict()
+            actions = {"cycle_start": sim.cycle_start} if sim is not None else {}
+            operator = _operator(operator, actions, auto, stdin, stream)
+            engine = RunEngine(rig, operator, (store,))
+            outcome = engine.run(positioning_plan(setup, {}, resume=rp))
+        finally:
+            rig.close()
+    finally:
+        if sim is not None:
+            sim.close()
+    print(f"run {outcome.exit_status}: {store.points_written} points in {out}"
+          + (f" ({outcome.reason})" if outcome.reason else ""), file=stream)
+    return PositioningResult(out, outcome, setup, sim, tuple(engine.faults))

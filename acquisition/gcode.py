@@ -1,0 +1,70 @@
+"""Part programs for ISO 230-2 positioning cycles (``guideway gcode``).
+
+The program moves the axis through exactly the stops of the set-up's cycle
+(:func:`acquisition.iso230.cycle`): absolute straight moves at the set-up's
+feed, overrun stops without dwell, and at each target a dwell followed by the
+trigger mode's hand-over:
+
+* ``in-position``: the PLC handshake of docs/modbus-map.md.  Fanuc: macro
+  variables #500-#502 = target index, run, direction, then ``M100`` (a custom
+  M-code whose ladder writes registers 200-204 and finishes (FIN) when the tool
+  acknowledges).  LinuxCNC: analog outputs 0-2 = index, run, direction
+  (``M68``), digital output 0 on (``M64 P0``), wait for digital input 0 high
+  (``M66 P0 L3``, the acknowledge), output off (``M65 P0``).
+* ``stability``: the dwell only.
+* ``manual``: ``M00`` (program stop): the operator captures, then presses Cycle Start.
+
+Every measured target's block has a sequence number N<k> (k = 1, 2, ... in
+cycle order) so a resumed run can restart the program at the right block.
+"""
+
+from __future__ import annotations
+
+from .positioning_setup import PositioningSetup
+
+INPOS_MCODE = 100
+
+
+def _num(v: float, decimals: int = 4) -> str:
+    text = f"{v:.{decimals}f}".rstrip("0")
+    return text + "0" if text.endswith(".") else text
+
+
+def part_program(setup: PositioningSetup) -> str:
+    """The complete part program text (lines end with newline)."""
+    fanuc = setup.dialect == "fanuc"
+    ax, u, tr = setup.axis_name.upper(), setup.unit, setup.trigger
+    stops = setup.stops()
+    lines: list[str] = []
+    c = (lambda t: f"({t.upper()})") if fanuc else (lambda t: f"({t})")
+    if fanuc:
+        lines += ["%", f"O{setup.program_number:04d} {c('guideway ISO 230-2 ' + setup.cycle + ' cycle ' + ax)}"]
+    else:
+        lines.append(c(f"guideway ISO 230-2 {setup.cycle} cycle, axis {ax}"))
+    lines.append(c(f"{len(setup.targets)} targets, {setup.runs} runs each direction, overrun {_num(setup.overrun)} "
+                   f"{u}, dwell {_num(tr.dwell_s, 2)} s, trigger {tr.mode}"))
+    lines.append("G90 G94 G21" if setup.axis_type == "linear" else "G90 G94")
+    feed = f"F{_num(setup.feed_per_min, 1)}"
+    dwell = f"G04 X{_num(tr.dwell_s, 3)}" if fanuc else f"G4 P{_num(tr.dwell_s, 3)}"
+    k = 0
+    for i, s in enumerate(stops):
+        move = f"G01 {ax}{_num(s.position)} {feed}" if i == 0 else f"G01 {ax}{_num(s.position)}"
+        if not s.target_index:
+            lines.append(f"{move} {c('overrun, run ' + str(s.run))}")
+            continue
+        k += 1
+        arrow = "+" if s.direction > 0 else "-"
+        lines.append(f"N{k} {move} {c(f'run {s.run} {arrow} target {s.target_index}')}")
+        lines.append(dwell)
+        if tr.mode == "in-position":
+            if fanuc:
+                lines += [f"#500={s.target_index}", f"#501={s.run}", f"#502={s.direction}", f"M{INPOS_MCODE}"]
+            else:
+                lines += [f"M68 E0 Q{s.target_index}", f"M68 E1 Q{s.run}", f"M68 E2 Q{s.direction}", "M64 P0",
+                          f"M66 P0 L3 Q{_num(tr.timeout_s, 1)}", "M65 P0"]
+        elif tr.mode == "manual":
+            lines.append("M00")
+    lines.append("M30" if fanuc else "M2")
+    if fanuc:
+        lines.append("%")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,45 @@
+"""Live processing: an engine subscriber that turns every new straightness point
+into a surface height while the run goes on (the default decoupling method of
+processing.decoupling against the run's first point, so the live value is the
+value ``guideway process`` reports), for the terminal log and the UI."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import pandas as pd
+
+from processing.decoupling import decouple
+from processing.geometry import BlockGeometry
+
+HeightCallback = Callable[[int, int, float], None]  # (pass, station, height_um)
+
+
+class LiveProfile:
+    """Subscriber keeping ``heights[(pass, station)]`` (um, relative to the first point).
+
+    ``first`` is the run's first point when a resumed run starts (it is already on disk).
+    """
+
+    def __init__(self, geometry: BlockGeometry, on_height: HeightCallback | None = None,
+                 first: dict[str, Any] | None = None) -> None:
+        self.geometry = geometry
+        self.on_height = on_height
+        self.first = first
+        self.heights: dict[tuple[int, int], float] = {}
+
+    def __call__(self, name: str, doc: dict[str, Any]) -> None:
+        if name == "event" and doc.get("stream", "primary") == "primary":
+            row = doc["data"]
+            if self.first is None:
+                self.first = row
+            frame = pd.DataFrame([self.first, row])
+            h = float(decouple(frame, self.geometry)["height_um"].iloc[-1])
+            key = (int(row.get("pass", 0)), int(row["station"]))
+            self.heights[key] = h
+            if self.on_height is not None:
+                self.on_height(*key, h)
+        elif name == "retract":
+            m = doc["match"]
+            self.heights.pop((int(m.get("pass", 0)), int(m["station"])), None)

@@ -1,0 +1,218 @@
+"""Validated set-up of an ISO 230-2 positioning run, from TOML (docs/setup-positioning.toml)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .errors import SetupError
+from .iso230 import CYCLES, LONG_AXIS_MM, Stop, cycle, linear_targets, rotary_targets
+from .setup import DeviceSetup, _Table, check_devices, read_toml
+
+TRIGGERS = ("in-position", "stability", "manual")
+DIALECTS = ("fanuc", "linuxcnc")
+AXIS_TYPES = ("linear", "rotary")
+
+
+@dataclass(frozen=True)
+class EnvironmentSetup:
+    """run.json ``setup.environment`` (docs/run-format.md): what ``reading_mm`` already contains."""
+
+    refractive_index_assumed: float = 1.0
+    wavelength_nm: float = 632.991
+    expansion_ppm_per_k: float = 11.5
+    dead_path_mm: float = 0.0
+    abbe_offset_mm: tuple[float, float] = (0.0, 0.0)
+    co2_ppm: float = 450.0
+    readings_compensated: bool = False
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**asdict(self), "abbe_offset_mm": list(self.abbe_offset_mm)}
+
+
+@dataclass(frozen=True)
+class TriggerSetup:
+    """How each point is captured: ``in-position`` (PLC register), ``stability`` (the position stays
+    within ``stability_window`` (um or arcsec) for ``dwell_s`` near a target), or ``manual``."""
+
+    mode: str = "in-position"
+    dwell_s: float = 2.0
+    timeout_s: float = 120.0
+    stability_window: float = 1.0
+    near: float = 0.5  # mm or deg: how close to the target the stability check starts
+    poll_s: float = 0.05
+
+    def __post_init__(self) -> None:
+        if self.mode not in TRIGGERS:
+            raise SetupError(f"[trigger] mode must be one of {', '.join(TRIGGERS)}, got {self.mode!r}")
+        for name in ("dwell_s", "timeout_s", "stability_window", "near", "poll_s"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise SetupError(f"[trigger] {name} must be a number >= 0, got {v}")
+
+
+@dataclass(frozen=True)
+class SimulatedAxisSetup:
+    """Errors of the simulated machine axis (``--simulate``): um (linear) or arcsec (rotary)."""
+
+    pitch_amplitude: float = 4.0
+    pitch_wavelength: float = 700.0
+    slope_per_m: float = 6.0
+    backlash: float = 3.0
+    periodic: float = 0.6
+    periodic_period: float = 10.0
+    thermal_per_m_per_h: float = 4.0
+    noise: float = 0.15
+
+
+@dataclass(frozen=True)
+class PositioningSetup:
+    """Everything an ISO 230-2 positioning run needs before it starts."""
+
+    axis_name: str
+    axis_type: str
+    targets: tuple[float, ...]
+    runs: int = 5
+    cycle: str = "linear"
+    overrun: float = 5.0
+    feed_per_min: float = 2000.0
+    datum: float = 0.0
+    trigger: TriggerSetup = field(default_factory=TriggerSetup)
+    environment: EnvironmentSetup = field(default_factory=EnvironmentSetup)
+    devices: DeviceSetup = field(default_factory=DeviceSetup)
+    dialect: str = "fanuc"
+    program_number: int = 1000
+    max_deviation: float = 1.0  # mm or deg: a reading further than this from its target is rejected
+    simulation: SimulatedAxisSetup = field(default_factory=SimulatedAxisSetup)
+    long_axis: bool = False
+    machine: str = ""
+    operator: str = ""
+    notes: str = ""
+
+    def __post_init__(self) -> None:
+        if self.axis_type not in AXIS_TYPES:
+            raise SetupError(f"[axis] type must be linear or rotary, got {self.axis_type!r}")
+        if self.cycle not in CYCLES:
+            raise SetupError(f"[axis] cycle must be one of {', '.join(CYCLES)}, got {self.cycle!r}")
+        if self.dialect not in DIALECTS:
+            raise SetupError(f"[gcode] dialect must be one of {', '.join(DIALECTS)}, got {self.dialect!r}")
+        if not (math.isfinite(self.feed_per_min) and self.feed_per_min > 0):
+            raise SetupError(f"[axis] feed must be positive, got {self.feed_per_min}")
+        self.stops()  # validates targets, runs and overrun
+
+    @property
+    def unit(self) -> str:
+        return "deg" if self.axis_type == "rotary" else "mm"
+
+    def stops(self) -> list[Stop]:
+        return cycle(self.cycle, self.targets, self.runs, self.overrun)
+
+    def measured_stops(self) -> list[Stop]:
+        """The stops where a point is captured, in the order the cycle reaches them."""
+        return [s for s in self.stops() if s.target_index]
+
+    def to_run_setup(self) -> dict[str, Any]:
+        """run.json ``setup`` of a positioning run (docs/run-format.md, version 2)."""
+        u = self.unit
+        return {
+            "axis_name": self.axis_name,
+            f"targets_{u}": list(self.targets),
+            "runs": self.runs,
+            "cycle": self.cycle,
+            f"overrun_{u}": self.overrun,
+            "trigger": self.trigger.mode,
+            "dwell_s": self.trigger.dwell_s,
+            f"feed_{u}_min": self.feed_per_min,
+            f"datum_{u}": self.datum,
+            "long_axis": self.long_axis,
+            "trigger_options": asdict(self.trigger),
+            f"max_deviation_{u}": self.max_deviation,
+            "gcode": {"dialect": self.dialect, "program_number": self.program_number},
+            "environment": self.environment.to_dict(),
+            "devices": asdict(self.devices),
+        }
+
+    def header(self) -> dict[str, Any]:
+        return {"machine": self.machine, "axis": self.axis_name, "operator": self.operator, "notes": self.notes,
+                "axis_type": self.axis_type, "setup": self.to_run_setup()}
+
+
+def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> PositioningSetup:
+    """Build and validate a :class:`PositioningSetup` from the TOML structure."""
+    top = _Table(source, "", data)
+    kind = top.get("kind", str, "positioning")
+    if kind != "positioning":
+        raise SetupError(f"{source}: kind is {kind!r}; this command needs a positioning setup")
+    text = {k: top.get(k, str, "") for k in ("machine", "operator", "notes")}
+    ax = top.table("axis")
+    axis_type = ax.get("type", str, "linear")
+    if axis_type not in AXIS_TYPES:
+        raise SetupError(f"{source}: [axis] type must be linear or rotary, got {axis_type!r}")
+    u = "deg" if axis_type == "rotary" else "mm"
+    name = ax.get("name", str, "C" if axis_type == "rotary" else "X")
+    seed = ax.get("seed", int, 0)
+    explicit = ax.get(f"targets_{u}", list, None)
+    start = ax.get(f"start_{u}", float, 0.0)
+    end = ax.get(f"end_{u}", float, 360.0 if axis_type == "rotary" else None)
+    long_axis = False
+    if explicit is not None:
+        if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in explicit):
+            raise SetupError(f"{source}: [axis] targets_{u} must be a list of numbers")
+        targets = tuple(float(v) for v in explicit)
+    elif end is None:
+        raise SetupError(f"{source}: [axis] give end_{u} (targets are generated per ISO 230-2) or targets_{u}")
+    elif axis_type == "rotary":
+        targets = rotary_targets(start, end, seed=seed, per_rev=ax.get("targets_per_rev", int, 8))
+    else:
+        targets = linear_targets(start, end, seed=seed)
+        long_axis = end - start > LONG_AXIS_MM
+    runs = ax.get("runs", int, 1 if long_axis else 5)
+    cyc = ax.get("cycle", str, "linear")
+    overrun = ax.get(f"overrun_{u}", float, 5.0 if u == "mm" else 2.0)
+    feed = ax.get(f"feed_{u}_min", float, 2000.0 if u == "mm" else 1800.0)
+    datum = ax.get(f"datum_{u}", float, start)
+    max_dev = ax.get(f"max_deviation_{u}", float, 1.0 if u == "mm" else 0.1)
+
+    tr = top.table("trigger")
+    d = TriggerSetup()
+    trigger = TriggerSetup(
+        mode=tr.get("mode", str, d.mode), dwell_s=tr.get("dwell_s", float, d.dwell_s),
+        timeout_s=tr.get("timeout_s", float, d.timeout_s),
+        stability_window=tr.get("stability_window_arcsec" if u == "deg" else "stability_window_um", float,
+                                d.stability_window),
+        near=tr.get(f"near_{u}", float, d.near), poll_s=tr.get("poll_s", float, d.poll_s),
+    )
+    en = top.table("environment")
+    e = EnvironmentSetup()
+    environment = EnvironmentSetup(
+        refractive_index_assumed=en.get("refractive_index_assumed", float, e.refractive_index_assumed),
+        wavelength_nm=en.get("wavelength_nm", float, e.wavelength_nm),
+        expansion_ppm_per_k=en.get("expansion_ppm_per_k", float, e.expansion_ppm_per_k),
+        dead_path_mm=en.get("dead_path_mm", float, e.dead_path_mm),
+        abbe_offset_mm=en.vector("abbe_offset_mm", 2, list(e.abbe_offset_mm)),  # type: ignore[arg-type]
+        co2_ppm=en.get("co2_ppm", float, e.co2_ppm),
+        readings_compensated=en.get("readings_compensated", bool, e.readings_compensated),
+    )
+    ctl = top.table("controller")
+    devices = DeviceSetup(sensor_url="", controller_url=ctl.get("url", str, ""),
+                          word_order=ctl.get("word_order", str, "ABCD"))
+    check_devices(devices, source, sensor=False)
+    gc = top.table("gcode")
+    dialect, program_number = gc.get("dialect", str, "fanuc"), gc.get("program_number", int, 1000)
+    sim = top.table("simulation")
+    s = SimulatedAxisSetup()
+    simulation = SimulatedAxisSetup(**{k: sim.get(k, float, getattr(s, k)) for k in asdict(s)})
+    for t in (top, ax, tr, en, ctl, gc, sim):
+        t.check_unknown()
+    return PositioningSetup(
+        axis_name=name, axis_type=axis_type, targets=targets, runs=runs, cycle=cyc, overrun=overrun,
+        feed_per_min=feed, datum=datum, trigger=trigger, environment=environment, devices=devices,
+        dialect=dialect, program_number=program_number,
+        max_deviation=max_dev, simulation=simulation, long_axis=long_axis, **text,
+    )
+
+
+def load_positioning_setup(path: Path | str) -> PositioningSetup:
+    return positioning_setup_from_dict(read_toml(path), str(path))

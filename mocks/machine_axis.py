@@ -1,0 +1,242 @@
+"""A simulated machine axis that runs an ISO 230-2 test cycle, seen by the
+interferometer emulator, and its PLC's in-position handshake registers
+(docs/modbus-map.md, registers 200-211).
+
+The axis works through a list of stops (position, target index, run,
+direction).  At a measured stop it comes to rest, the PLC sets *in position*
+with the target index, run and direction and increments the in-position
+counter; what releases it depends on the program the machine runs:
+
+* ``handshake="ack"`` (in-position trigger): the tool writes the counter value
+  to the acknowledge register; the axis moves on at once.
+* ``handshake="cycle-start"`` (manual trigger, M00 at each target): the
+  simulated technician presses Cycle Start (:meth:`MachineAxis.cycle_start`).
+* ``handshake="timed"`` (stability trigger, plain dwell): the axis stays
+  ``dwell_s`` of wall-clock time at each target, then moves on.
+
+Motion itself takes no simulated time; machine time advances by move time at
+the feed rate plus the dwell at each stop, so thermal drift depends on the
+cycle, not on how fast the test runs.  Actual position at rest::
+
+    actual = commanded + e(P, direction, t) + noise
+    e = pitch(P) + periodic(P) + direction-dependent backlash + thermal(P, t)
+
+The interferometer is zeroed at the datum: it reports ``actual - datum`` (mm,
+linear axes) and fills ``angle_deg`` (rotary axes, degrees) the same way.  This
+module is written from the documentation and never imports ``drivers``.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from pymodbus.simulator import DataType, SimData
+
+from .world import Capture, Environment
+
+# Registers (docs/modbus-map.md), holding registers, 0-based.
+REG_INPOS_STATUS, REG_INPOS_TARGET, REG_INPOS_RUN, REG_INPOS_DIRECTION = 200, 201, 202, 203
+REG_INPOS_COUNT, REG_INPOS_ACK = 204, 205
+REG_ANGLE = 208  # FLOAT64, 4 registers
+EXT_END = 212
+IP_IN_POSITION, IP_RUNNING, IP_DONE = 1, 2, 4
+
+
+@dataclass(frozen=True)
+class AxisErrors:
+    """Error model of the axis, in um (linear) or arcsec (rotary) and mm (or deg) positions.
+
+    ``pitch`` waves (amplitude, wavelength, phase) plus a linear ``slope_per_m`` (um per metre or
+    arcsec per revolution...), ``backlash``: lost motion on reversal (the axis stops short by half
+    of it in the approach direction), ``periodic``: screw / worm periodic error of period
+    ``periodic_period``, ``thermal_per_m_per_h``: expansion growing with machine time, ``noise``:
+    standard deviation of each reading.
+    """
+
+    pitch: tuple[tuple[float, float, float], ...] = ((4.0, 700.0, 0.4), (1.5, 230.0, 1.1))
+    slope_per_m: float = 6.0
+    backlash: float = 3.0
+    periodic: float = 0.6
+    periodic_period: float = 10.0
+    thermal_per_m_per_h: float = 4.0
+    noise: float = 0.15
+
+    def deviation(self, p: float, direction: int, t_h: float) -> float:
+        """Error (um or arcsec) of a stop at ``p`` approached in ``direction`` at machine time ``t_h`` hours."""
+        e = self.slope_per_m * p / 1000.0
+        for amp, wl, ph in self.pitch:
+            e += amp * math.sin(2 * math.pi * p / wl + ph)
+        e += self.periodic * math.sin(2 * math.pi * p / self.periodic_period)
+        e -= direction * self.backlash / 2.0
+        e += self.thermal_per_m_per_h * p / 1000.0 * t_h
+        return e
+
+
+@dataclass(frozen=True)
+class MachineStop:
+    position: float
+    target_index: int
+    run: int
+    direction: int
+
+
+@dataclass
+class MachineAxis:
+    """The axis, its cycle and the PLC handshake; duck-types the ``World`` the emulator reads."""
+
+    stops: Sequence[MachineStop]
+    rotary: bool = False
+    errors: AxisErrors = field(default_factory=AxisErrors)
+    feed_per_min: float = 2000.0
+    dwell_s: float = 1.0
+    handshake: str = "ack"
+    datum: float = 0.0
+    seed: int = 0
+    environment: Environment = field(default_factory=Environment)
+
+    def __post_init__(self) -> None:
+        if self.handshake not in ("ack", "cycle-start", "timed"):
+            raise ValueError(f"unknown handshake {self.handshake!r}")
+        self._rng = np.random.default_rng([self.seed, 11])
+        self._lock = threading.RLock()
+        self.beam_blocked = False
+        self.index = -1  # the stop the axis is at; -1 = at the datum, program not started
+        self.commanded = self.datum
+        self.machine_time_s = 0.0
+        self.in_position = False
+        self.count = 0
+        self.running = False
+        self.done = False
+        self._datum_actual = self.datum
+        self.last_angle_deg = 0.0
+        self._arrived = 0.0
+        self._at_overrun = False
+        self.captured: list[tuple[int, float]] = []  # (stop index, true actual position) per capture
+
+    # -- units: errors are um (linear) or arcsec (rotary) -------------------------------------
+    def _unit(self, e: float) -> float:
+        return e / 3600.0 if self.rotary else e * 1e-3
+
+    def actual(self) -> float:
+        """True position of the axis now (mm or deg), without reading noise."""
+        if self.index < 0:
+            return self.datum
+        s = self.stops[self.index]
+        return s.position + self._unit(self.errors.deviation(s.position, s.direction, self.machine_time_s / 3600))
+
+    # -- the program ---------------------------------------------------------------------------
+    def _advance(self) -> None:
+        """Move through stops until the next measured one (where the PLC signals in position)."""
+        while self.index + 1 < len(self.stops):
+            self.index += 1
+            s = self.stops[self.index]
+            dist = abs(s.position - self.commanded)
+            self.commanded = s.position
+            self.machine_time_s += 60.0 * dist / self.feed_per_min + (self.dwell_s if s.target_index else 0.0)
+            self._arrived = time.monotonic()
+            if s.target_index:
+                self.in_position = True
+                self.count = (self.count + 1) & 0xFFFF
+                return
+            if self.handshake == "timed":  # reversing at the overrun takes time too
+                self._at_overrun = True
+                return
+        self.in_position = False
+        self.running = False
+        self.done = True
+
+    def cycle_start(self, **_: object) -> None:
+        """Cycle Start: start the program, or continue from an M00 stop."""
+        with self._lock:
+            if self.done:
+                return
+            self.running = True
+            self.in_position = False
+            self._advance()
+
+    def tick(self) -> None:
+        """Timed dwell: leave the target once ``dwell_s`` has passed (called on every access)."""
+        with self._lock:
+            resting = self.in_position or self._at_overrun
+            if self.handshake == "timed" and resting and time.monotonic() - self._arrived >= self.dwell_s:
+                self.in_position = self._at_overrun = False
+                self._advance()
+
+    def acknowledge(self, value: int) -> None:
+        """The tool wrote ``value`` to the acknowledge register."""
+        with self._lock:
+            if self.handshake == "ack" and self.in_position and value == self.count:
+                self.in_position = False
+                self._advance()
+
+    # -- what the interferometer emulator reads --------------------------------------------------
+    def set_datum(self) -> None:
+        with self._lock:
+            self._datum_actual = self.actual()
+
+    def capture(self) -> Capture:
+        with self._lock:
+            self.tick()
+            actual = self.actual()
+            self.captured.append((self.index, actual))
+            noise = self._unit(float(self._rng.normal(0.0, self.errors.noise))) if self.errors.noise else 0.0
+            rel = actual - self._datum_actual + noise
+            self.last_angle_deg = rel if self.rotary else 0.0
+            return Capture(position_mm=0.0 if self.rotary else rel, stry_um=0.0, strz_um=0.0,
+                           pitch_urad=0.0, yaw_urad=0.0, roll_urad=0.0)
+
+    def environment_now(self) -> tuple[float, float, float, float]:
+        with self._lock:
+            env = self.environment
+            drift = env.drift_c_per_h * self.machine_time_s / 3600.0
+            return (env.air_temp_c + drift, env.air_pressure_hpa, env.humidity_pct,
+                    env.material_temp_c + 0.5 * drift)
+
+
+def _float64_registers(value: float, word_order: str) -> list[int]:
+    raw = struct.pack(">d", value)
+    words = [int.from_bytes(raw[i:i + 2], "big") for i in range(0, 8, 2)]
+    return words[::-1] if word_order == "CDAB" else words
+
+
+class InPositionRegisters:
+    """Emulator extension serving registers 200-211 from a :class:`MachineAxis`."""
+
+    def __init__(self, axis: MachineAxis, word_order: str = "ABCD") -> None:
+        self.axis = axis
+        self.word_order = word_order
+
+    def simdata(self) -> list[SimData]:
+        return [
+            SimData(REG_INPOS_STATUS, count=REG_INPOS_ACK - REG_INPOS_STATUS, values=0,
+                    datatype=DataType.REGISTERS, readonly=True),
+            SimData(REG_INPOS_ACK, values=0, datatype=DataType.REGISTERS),
+            SimData(REG_INPOS_ACK + 1, count=EXT_END - REG_INPOS_ACK - 1, values=0, datatype=DataType.REGISTERS,
+                    readonly=True),
+        ]
+
+    def command(self, code: int) -> None:
+        """The in-position handshake adds no command codes."""
+        return None
+
+    def access(self, start: int, address: int, registers: list[int], set_values: list[int] | None) -> None:
+        """Called by the emulator on every access, after its own registers are up to date."""
+        a = self.axis
+        a.tick()
+        if set_values is not None and address == REG_INPOS_ACK:
+            a.acknowledge(int(set_values[0]))
+        with a._lock:
+            status = (IP_IN_POSITION if a.in_position else 0) | (IP_RUNNING if a.running else 0) | (
+                IP_DONE if a.done else 0)
+            s = a.stops[a.index] if a.in_position else None
+            values = [status, s.target_index if s else 0, s.run if s else 0,
+                      (s.direction & 0xFFFF) if s else 0, a.count]
+            angle = _float64_registers(a.last_angle_deg, self.word_order)
+        registers[REG_INPOS_STATUS - start: REG_INPOS_ACK - start] = values
+        registers[REG_ANGLE - start: EXT_END - start] = angle

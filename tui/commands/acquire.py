@@ -1,0 +1,79 @@
+"""``guideway acquire straightness|positioning``: acquire a run from a set-up file.
+
+    guideway acquire straightness --setup SETUP.toml --out RUN_DIR [--simulate] [--auto]
+    guideway acquire positioning --setup SETUP.toml --out RUN_DIR [--simulate] [--auto]
+    guideway acquire [KIND] --resume RUN_DIR [--simulate] [--auto]     (or: KIND --out RUN_DIR --resume)
+
+The plain-terminal operator asks on stdin/stdout (Enter = capture) unless
+``--auto`` (the simulated technician).  ``--resume`` continues an interrupted
+run in RUN_DIR after its last completed step.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+KINDS = ("straightness", "positioning")
+
+
+def run(args: argparse.Namespace) -> int:
+    from acquisition.acquire import SimOptions, run_positioning, run_straightness
+    from acquisition.errors import SetupError, UserError
+    from acquisition.positioning_setup import positioning_setup_from_dict
+    from acquisition.setup import read_toml, straightness_setup_from_dict
+
+    resume = args.resume is not None
+    if isinstance(args.resume, Path):
+        if args.out is not None and args.out != args.resume:
+            raise SetupError("--resume RUN_DIR and --out name different directories; give one of them")
+        args.out = args.resume
+    if args.out is None:
+        raise SetupError("give the run directory: --out RUN_DIR (or --resume RUN_DIR)")
+    if args.kind is None:
+        if not resume:
+            raise SetupError("give the run kind: guideway acquire straightness|positioning ...")
+        from acquisition.runstore import load_run
+
+        args.kind = load_run(args.out).kind
+    if args.setup is None and not resume:
+        raise SetupError(f"a new run needs --setup SETUP.toml (see docs/setup-{args.kind}.toml)")
+    if args.faults and not args.simulate:
+        raise SetupError("--faults needs --simulate (faults are injected into the simulated devices)")
+    sim = SimOptions(args.seed, not args.no_noise, args.faults) if args.simulate else None
+    source = read_toml(args.setup) if args.setup is not None else None
+    if args.kind == "straightness":
+        setup = straightness_setup_from_dict(source, str(args.setup)) if source is not None else None
+        res = run_straightness(setup, args.out, simulate=sim, auto=args.auto, resume=resume)
+    else:
+        psetup = positioning_setup_from_dict(source, str(args.setup)) if source is not None else None
+        res = run_positioning(psetup, args.out, simulate=sim, auto=args.auto, resume=resume,  # type: ignore[assignment]
+                              setup_source=source)
+    status = res.outcome.exit_status
+    if status == "fail":
+        raise UserError(f"run failed ({res.outcome.reason}); the points captured are in {args.out}; "
+                        f"continue with: guideway acquire --resume {args.out}")
+    if status == "abort":
+        print(f"guideway: run aborted ({res.outcome.reason}); the points are kept in {args.out}; "
+              f"continue with: guideway acquire --resume {args.out}", file=sys.stderr)
+        return 1
+    print(f"process it with: guideway process {args.out}")
+    return 0
+
+
+def register(sub) -> None:  # noqa: ANN001
+    a = sub.add_parser("acquire", help="acquire a straightness or positioning run from a set-up file, or resume one")
+    a.add_argument("kind", nargs="?", choices=KINDS, default=None,
+                   help="run kind (with --resume: read from the run)")
+    a.add_argument("--setup", type=Path, default=None, help="set-up file (TOML); optional with --resume")
+    a.add_argument("--out", type=Path, default=None, help="run directory (new, or the run to resume)")
+    a.add_argument("--simulate", action="store_true", help="simulated devices on real transports")
+    a.add_argument("--auto", action="store_true", help="automatic operator (simulated technician)")
+    a.add_argument("--resume", nargs="?", type=Path, const=True, default=None, metavar="RUN_DIR",
+                   help="continue the interrupted run in RUN_DIR (or in --out)")
+    a.add_argument("--seed", type=int, default=0, help="--simulate: seed of the simulated world (default 0)")
+    a.add_argument("--no-noise", action="store_true", help="--simulate: switch the instrument noise off")
+    a.add_argument("--faults", default=None, metavar="SPEC",
+                   help="--simulate: inject device faults (DEVICE:KIND@N[xCOUNT][=ARG]), e.g. sensor:drop@9x1")
+    a.set_defaults(func=run)
