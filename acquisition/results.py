@@ -9,6 +9,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 
 from processing.straightness import StraightnessResult  # noqa: E402
 
@@ -36,8 +37,22 @@ def write_straightness_results(results_dir: Path, result: StraightnessResult) ->
 
 
 def plot_profile(result: StraightnessResult, path: Path) -> None:
+    """Write :func:`profile_figure` to ``path`` (PNG, atomically)."""
+    save_figure(profile_figure(result), path)
+
+
+def save_figure(fig: Figure, path: Path) -> None:
+    """Save ``fig`` to ``path`` through a temporary file, then close it."""
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp)
+    plt.close(fig)
+    tmp.replace(path)
+
+
+def profile_figure(result: StraightnessResult) -> Figure:
     """Profile with its reference lines (straightness per line in the legend), the
-    expanded-uncertainty band (k = 2) and, when present, the two passes."""
+    expanded-uncertainty band (k = 2) and, when present, the two passes; below it the
+    deviation from the minimum-zone line.  The caller closes the figure."""
     x = result.profile["x_mm"].to_numpy()
     h = result.profile["height_um"].to_numpy()
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(9, 7), dpi=110, sharex=True, height_ratios=(3, 2))
@@ -75,7 +90,4 @@ def plot_profile(result: StraightnessResult, path: Path) -> None:
     ax2.set_xlabel("x (mm), position of the sensor sample point from the first station")
     ax2.grid(True, alpha=0.3)
     fig.tight_layout()
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    tmp.replace(path)
+    return fig

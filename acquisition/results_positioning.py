@@ -10,7 +10,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 
+from .results import save_figure  # noqa: E402
 from .runstore import write_json_atomic  # noqa: E402
 
 if TYPE_CHECKING:
@@ -37,15 +39,24 @@ def write_positioning_results(results_dir: Path, evaluation: PositioningEvaluati
 
 
 def plot_positioning(evaluation: PositioningEvaluation, path: Path) -> None:
-    """Every run, the mean per direction with its ±k·s band, and the reversal B_i per target."""
+    """Write :func:`positioning_figure` to ``path`` (PNG, atomically)."""
+    save_figure(positioning_figure(evaluation), path)
+
+
+def positioning_figure(evaluation: PositioningEvaluation) -> Figure:
+    """Every run, the mean per direction with its ±k·s band, and the reversal B_i per target.
+    The caller closes the figure."""
     r = evaluation.result
     pt = r.per_target
     dev = evaluation.deviations
     fig, (ax, axb) = plt.subplots(2, 1, figsize=(9, 6.5), dpi=110, sharex=True,
                                   gridspec_kw={"height_ratios": [3, 1]})
     colours = {1: "tab:blue", -1: "tab:red"}
+    labelled: set[int] = set()
     for (d, _run), g in dev.sort_values("target").groupby(["direction", "run"]):
-        ax.plot(g["target"], g["deviation"], "-", color=colours[int(d)], lw=0.6, alpha=0.35)
+        label = None if int(d) in labelled else f"each run {'up' if d == 1 else 'down'}"
+        labelled.add(int(d))
+        ax.plot(g["target"], g["deviation"], "-", color=colours[int(d)], lw=0.6, alpha=0.35, label=label)
     x = pt["target"].to_numpy()
     for d, col, s_col, label in ((1, "mean_up", "s_up", "up"), (-1, "mean_down", "s_down", "down")):
         mean = pt[col].to_numpy()
@@ -68,7 +79,4 @@ def plot_positioning(evaluation: PositioningEvaluation, path: Path) -> None:
     axb.set_xlabel(f"target ({r.target_unit})")
     axb.grid(True, alpha=0.3)
     fig.tight_layout()
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    tmp.replace(path)
+    return fig

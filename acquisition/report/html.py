@@ -14,7 +14,8 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 CSS = """
-body { font-family: "DejaVu Sans", Arial, sans-serif; margin: 2em auto; max-width: 60em; color: #111; }
+body { font-family: "DejaVu Sans", Arial, "Noto Sans CJK SC", "Microsoft YaHei", "PingFang SC", "WenQuanYi Zen Hei",
+       sans-serif; margin: 2em auto; max-width: 60em; color: #111; }
 h1 { font-size: 1.5em; border-bottom: 2px solid #333; padding-bottom: .2em; }
 h2 { font-size: 1.2em; margin-top: 1.6em; border-bottom: 1px solid #999; }
 table { border-collapse: collapse; margin: .6em 0; font-size: .9em; }
@@ -25,7 +26,15 @@ figure { margin: 1em 0; page-break-inside: avoid; }
 figcaption { font-size: .85em; color: #444; }
 img { max-width: 100%; }
 .note { font-size: .85em; color: #444; }
-@media print { body { margin: 0; max-width: none; } h2 { page-break-after: avoid; } }
+.alert { border: 3px solid #b00; background: #fee; color: #600; font-weight: bold; padding: .5em .8em; }
+h3 { font-size: 1em; margin-top: 1.2em; }
+.footer { margin-top: 2em; border-top: 1px solid #999; }
+@media print {
+  body { margin: 0; max-width: none; font-size: 10pt; }
+  h2, h3 { page-break-after: avoid; }
+  tr { page-break-inside: avoid; }
+  .alert { -webkit-print-color-adjust: exact; print-color-adjust: exact; }
+}
 """
 
 
@@ -83,6 +92,10 @@ class HtmlPage:
 
     def key_values(self, items: Iterable[tuple[str, Any]], *, digits: int = 3) -> None:
         self.table(("item", "value"), items, digits=digits, text_columns=(0, 1))
+
+    def alert(self, text: str) -> None:
+        """A boxed warning the reader cannot miss (also when printed)."""
+        self._parts.append(f'<p class="alert">{esc(text)}</p>')
 
     def image(self, png: bytes, caption: str) -> None:
         data = base64.b64encode(png).decode("ascii")

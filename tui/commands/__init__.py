@@ -16,6 +16,7 @@ COMMAND_MODULES = (
     "import_data",
     "air_index",
     "export",
+    "report",
 )
 
 
