@@ -22,6 +22,7 @@ table { border-collapse: collapse; margin: .6em 0; font-size: .9em; }
 th, td { border: 1px solid #bbb; padding: .2em .6em; text-align: right; }
 th { background: #eee; }
 td.text, th.text { text-align: left; }
+table.kv td:first-child { white-space: nowrap; }
 figure { margin: 1em 0; page-break-inside: avoid; }
 figcaption { font-size: .85em; color: #444; }
 img { max-width: 100%; }
@@ -33,6 +34,7 @@ h3 { font-size: 1em; margin-top: 1.2em; }
   body { margin: 0; max-width: none; font-size: 10pt; }
   h2, h3 { page-break-after: avoid; }
   tr { page-break-inside: avoid; }
+  thead { display: table-header-group; }  /* header row repeated on every printed page */
   .alert { -webkit-print-color-adjust: exact; print-color-adjust: exact; }
 }
 """
@@ -51,7 +53,10 @@ def fmt(value: Any, digits: int = 3) -> str:
     if isinstance(value, int):
         return str(value)
     if isinstance(value, float):
-        return "—" if not math.isfinite(value) else f"{value:.{digits}f}"
+        if not math.isfinite(value):
+            return "—"
+        text = f"{value:.{digits}f}"
+        return text[1:] if text.startswith("-") and float(text) == 0 else text  # no "-0.000"
     return str(value)
 
 
@@ -80,18 +85,19 @@ class HtmlPage:
         self._parts.append(f"<p{attr}>{esc(text)}</p>")
 
     def table(self, header: Sequence[str], rows: Iterable[Sequence[Any]], *, digits: int = 3,
-              text_columns: Sequence[int] = (0,)) -> None:
+              text_columns: Sequence[int] = (0,), cls: str = "") -> None:
         def cell(tag: str, i: int, v: Any) -> str:
-            cls = ' class="text"' if i in text_columns else ""
-            return f"<{tag}{cls}>{esc(fmt(v, digits))}</{tag}>"
+            attr = ' class="text"' if i in text_columns else ""
+            return f"<{tag}{attr}>{esc(fmt(v, digits))}</{tag}>"
 
-        out = ["<table>", "<tr>" + "".join(cell("th", i, h) for i, h in enumerate(header)) + "</tr>"]
+        out = [f'<table class="{esc(cls)}">' if cls else "<table>",
+               "<thead><tr>" + "".join(cell("th", i, h) for i, h in enumerate(header)) + "</tr></thead>"]
         out += ["<tr>" + "".join(cell("td", i, v) for i, v in enumerate(row)) + "</tr>" for row in rows]
         out.append("</table>")
         self._parts.append("\n".join(out))
 
     def key_values(self, items: Iterable[tuple[str, Any]], *, digits: int = 3) -> None:
-        self.table(("item", "value"), items, digits=digits, text_columns=(0, 1))
+        self.table(("item", "value"), items, digits=digits, text_columns=(0, 1), cls="kv")
 
     def alert(self, text: str) -> None:
         """A boxed warning the reader cannot miss (also when printed)."""

@@ -121,3 +121,36 @@ def test_complete_run_that_cannot_be_evaluated_is_an_error(run_copy: Path) -> No
     with pytest.raises(RunFormatError, match="need at least 2"):
         build_report(run_copy)
     assert not (run_copy / "results" / "report.html").exists()
+
+
+def test_return_pass_closure_and_drift(run_copy: Path) -> None:
+    """A v2 run whose return pass repeats the forward readings, the sensor reading 0.3 um
+    higher: the return profile is 0.3 um higher everywhere (sensor_sign "height"), so the
+    closure at the datum is 0.3 um and the drift the LS slope of 0.3 um against the time gap."""
+    meta = json.loads((run_copy / "run.json").read_text())
+    meta["version"] = 2
+    meta["setup"]["return_pass"] = True
+    (run_copy / "run.json").write_text(json.dumps(meta))
+    lines = (run_copy / "points.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    t_col, s_col = header.index("time_s"), header.index("sensor_mm")
+    fwd = [ln.split(",") for ln in lines[1:]]
+    t_end = max(float(r[t_col]) for r in fwd)
+    back, gaps_h = [], []
+    for k, r in enumerate(reversed(fwd), start=1):
+        r = list(r)
+        t_back = t_end + 60.0 * k
+        gaps_h.append((t_back - float(r[t_col])) / 3600.0)
+        r[t_col], r[s_col] = f"{t_back}", f"{float(r[s_col]) + 0.0003:.6f}"
+        back.append(r)
+    rows = [",".join([*r, "0"]) for r in fwd] + [",".join([*r, "1"]) for r in back]
+    (run_copy / "points.csv").write_text(",".join([*header, "pass"]) + "\n" + "\n".join(rows) + "\n")
+
+    doc = build_report(run_copy, mc_trials=0).read_text(encoding="utf-8")
+    run_table = rows_by_first_cell(table_with_header(doc, "item", None))
+    assert run_table["points recorded / planned"]["value"] == "16 / 16"
+    section = doc[doc.index("<h3>Return pass</h3>"):]
+    table = rows_by_first_cell(table_with_header(section, "item", None))
+    assert number(table["closure error (µm)"]["value"]) == pytest.approx(0.3, abs=2e-3)
+    expected_drift = 0.3 * sum(gaps_h) / sum(g * g for g in gaps_h)
+    assert number(table["drift (µm/h)"]["value"]) == pytest.approx(expected_drift, rel=1e-2)
