@@ -9,6 +9,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from processing.straightness import StraightnessResult  # noqa: E402
@@ -49,6 +50,19 @@ def save_figure(fig: Figure, path: Path) -> None:
     tmp.replace(path)
 
 
+def legend_above_data(ax: Axes, *, ncol: int = 1) -> None:
+    """Legend in the upper left corner, the y axis extended upwards so that no data lies
+    under it (whatever the shape of the curves)."""
+    legend = ax.legend(fontsize=8, loc="upper left", ncol=ncol)
+    fig = ax.figure
+    fig.tight_layout()  # measure in the final layout (the caller lays out again afterwards)
+    fig.canvas.draw()
+    bottom = legend.get_window_extent().transformed(ax.transAxes.inverted()).y0  # axes fraction
+    frac = max(bottom - 0.03, 0.35)  # where the current top of the data may go
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(lo, lo + (hi - lo) / frac)
+
+
 def profile_figure(result: StraightnessResult) -> Figure:
     """Profile with its reference lines (straightness per line in the legend), the
     expanded-uncertainty band (k = 2) and, when present, the two passes; below it the
@@ -75,7 +89,7 @@ def profile_figure(result: StraightnessResult) -> Figure:
     ax.set_ylabel("height (um), +Y")
     ax.set_title(f"Guideway base-surface profile ({result.method} decoupling)")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
+    legend_above_data(ax, ncol=2)
     fit = result.lines.get("minimum_zone")
     if fit is not None:
         d = fit.deviations_um
@@ -85,7 +99,7 @@ def profile_figure(result: StraightnessResult) -> Figure:
         half = fit.straightness_um / 2
         ax2.axhline(half, color="tab:green", ls="-.", lw=1)
         ax2.axhline(-half, color="tab:green", ls="-.", lw=1, label=f"zone: {fit.straightness_um:.3f} um")
-        ax2.legend(fontsize=8)
+        legend_above_data(ax2, ncol=3)
     ax2.set_ylabel("deviation (um)")
     ax2.set_xlabel("x (mm), position of the sensor sample point from the first station")
     ax2.grid(True, alpha=0.3)

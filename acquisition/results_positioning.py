@@ -12,7 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from .results import save_figure  # noqa: E402
+from .results import legend_above_data, save_figure  # noqa: E402
 from .runstore import write_json_atomic  # noqa: E402
 
 if TYPE_CHECKING:
@@ -53,7 +53,8 @@ def positioning_figure(evaluation: PositioningEvaluation) -> Figure:
                                   gridspec_kw={"height_ratios": [3, 1]})
     colours = {1: "tab:blue", -1: "tab:red"}
     labelled: set[int] = set()
-    for (d, _run), g in dev.sort_values("target").groupby(["direction", "run"]):
+    runs = dev.sort_values("target").groupby(["direction", "run"])
+    for (d, _run), g in sorted(runs, key=lambda item: (-item[0][0], item[0][1])):  # up first
         label = None if int(d) in labelled else f"each run {'up' if d == 1 else 'down'}"
         labelled.add(int(d))
         ax.plot(g["target"], g["deviation"], "-", color=colours[int(d)], lw=0.6, alpha=0.35, label=label)
@@ -71,7 +72,7 @@ def positioning_figure(evaluation: PositioningEvaluation) -> Figure:
     ax.set_title(f"ISO 230-2 positioning ({r.directions}): {vals} {r.unit}", fontsize=10)
     ax.set_ylabel(f"deviation actual - target ({r.unit})")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
+    legend_above_data(ax, ncol=3)
     rev = pt["reversal"].to_numpy()
     width = 0.6 * (np.min(np.diff(x)) if len(x) > 1 else 1.0)
     axb.bar(x, np.nan_to_num(rev), width=width, color="tab:gray")
