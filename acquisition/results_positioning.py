@@ -68,14 +68,20 @@ def positioning_figure(evaluation: PositioningEvaluation) -> Figure:
         ax.fill_between(x, mean - ks, mean + ks, color=colours[d], alpha=0.15,
                         label=f"mean {label} ± {r.k:g} s")
     a = r.axis
-    vals = ", ".join(f"{q} = {a[q]:.3f}" for q in ("A", "E", "R", "B") if np.isfinite(a[q]))
-    ax.set_title(f"ISO 230-2 positioning ({r.directions}): {vals} {r.unit}", fontsize=10)
+    # the bidirectional value of each family, else the unidirectional one that was evaluated
+    families = (("A", "A_up", "A_down"), ("E", "E_up", "E_down"), ("R", "R_up", "R_down"), ("B",))
+    shown = [next((q for q in fam if np.isfinite(a[q])), None) for fam in families]
+    vals = ", ".join(f"{q} = {a[q]:.3f}" for q in shown if q is not None)
+    ax.set_title(f"{r.edition} positioning ({r.directions}): {vals} {r.unit}", fontsize=10)
     ax.set_ylabel(f"deviation actual - target ({r.unit})")
     ax.grid(True, alpha=0.3)
     legend_above_data(ax, ncol=3)
     rev = pt["reversal"].to_numpy()
     width = 0.6 * (np.min(np.diff(x)) if len(x) > 1 else 1.0)
     axb.bar(x, np.nan_to_num(rev), width=width, color="tab:gray")
+    if not np.isfinite(rev).any():
+        axb.text(0.5, 0.5, "no reversal: one direction measured", transform=axb.transAxes, ha="center",
+                 va="center", fontsize=9, color="0.3")
     axb.set_ylabel(f"reversal B_i ({r.unit})")
     axb.set_xlabel(f"target ({r.target_unit})")
     axb.grid(True, alpha=0.3)
