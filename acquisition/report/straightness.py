@@ -3,6 +3,8 @@ pass, uncertainty and the per-station table.  Heights and deviations in µm, x i
 
 from __future__ import annotations
 
+from typing import Any
+
 from processing.straightness import StraightnessResult
 from processing.uncertainty import K
 
@@ -24,6 +26,7 @@ def line_label(name: str) -> str:
 def straightness_sections(page: HtmlPage, evaluation: StraightnessEvaluation) -> None:
     r = evaluation.result
     summary_section(page, evaluation)
+    run_events_section(page, evaluation.run.meta)
     page.heading("Profile")
     page.image(figure_png(profile_figure(r)),
                "Top: base-surface profile (+Y height) with the end-point, least-squares and minimum-zone "
@@ -61,6 +64,24 @@ def summary_section(page: HtmlPage, evaluation: StraightnessEvaluation) -> None:
     page.paragraph("Straightness = max − min of the deviations from the named reference line "
                    "(ISO 230-1 straightness error); the minimum-zone value is the smallest of the three. "
                    + uncertainty_method_text(r), "note")
+
+
+def run_events_section(page: HtmlPage, meta: dict[str, Any]) -> None:
+    """Warm-up check and stations the operator skipped (run format v2, docs/run-format.md)."""
+    warmup = meta.get("warmup")
+    if isinstance(warmup, dict):
+        stable = warmup.get("stable")
+        state = "stable" if stable else ("not stable, overridden by the operator" if warmup.get("overridden")
+                                         else "not stable")
+        duration = warmup.get("duration_s")
+        page.paragraph(f"Warm-up: {state}" + (f" after {duration:.0f} s" if isinstance(duration, (int, float))
+                                              else "") + ".", "" if stable else "alert")
+    skipped = meta.get("skipped")
+    if isinstance(skipped, list) and skipped:
+        page.heading("Skipped stations", 3)
+        page.table(("station", "pass", "reason"),
+                   [(s.get("station"), "return" if s.get("pass") == 1 else "forward", s.get("reason", ""))
+                    for s in skipped if isinstance(s, dict)], text_columns=(1, 2))
 
 
 def uncertainty_method_text(r: StraightnessResult) -> str:

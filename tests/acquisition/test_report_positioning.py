@@ -119,3 +119,23 @@ def test_single_run_note_is_shown(tmp_path: Path) -> None:
     iso = rows_by_first_cell(table_with_header(doc, "symbol", "GB/T 17421.2 name"))
     # B_i = up − down: 1 − 1.5 = −0.5 um at 0 mm, 2 − 3 = −1 um at 100 mm
     assert iso["R"]["value"] == "—" and number(iso["B"]["value"]) == pytest.approx(1.0, abs=5e-4)
+
+
+def test_rotary_axis_in_arcsec(tmp_path: Path) -> None:
+    # deviations (arcsec): up 0°: 1, 2; 90°: 3, 4; down 0°: -1 (read as 359.99972°), 0; 90°: 5, 6
+    devs = {(1, 1, 0): 1, (2, 1, 0): 2, (1, 1, 90): 3, (2, 1, 90): 4,
+            (1, -1, 0): -1, (2, -1, 0): 0, (1, -1, 90): 5, (2, -1, 90): 6}
+    lines = ["run,direction,target_deg,reading_deg"]
+    for (run, d, t), dev in devs.items():
+        lines.append(f"{run},{d:+d},{t},{(t + dev / 3600.0) % 360.0:.10f}")
+    csv = tmp_path / "rot.csv"
+    csv.write_text("\n".join(lines) + "\n")
+    run = tmp_path / "run"
+    assert main(["import", "positioning", str(csv), "--out", str(run), "--axis-type", "rotary", "--axis", "C"]) == 0
+    doc = build_report(run).read_text(encoding="utf-8")
+    iso = rows_by_first_cell(table_with_header(doc, "symbol", "GB/T 17421.2 name"))
+    # means up 1.5, 3.5; down -0.5, 5.5: B_i = 2, -2; E = 5.5 - (-0.5); M = mean_bi 0.5 … 4.5
+    expected = {"B": 2.0, "B_mean": 0.0, "E": 6.0, "M": 4.0}
+    for q, v in expected.items():
+        assert iso[q]["unit"] == "arcsec" and number(iso[q]["value"]) == pytest.approx(v, abs=5e-4), q
+    assert "target (°)" in doc and "rotary axis: angular readings are not air-compensated" in doc

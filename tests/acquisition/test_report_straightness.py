@@ -154,3 +154,15 @@ def test_return_pass_closure_and_drift(run_copy: Path) -> None:
     assert number(table["closure error (µm)"]["value"]) == pytest.approx(0.3, abs=2e-3)
     expected_drift = 0.3 * sum(gaps_h) / sum(g * g for g in gaps_h)
     assert number(table["drift (µm/h)"]["value"]) == pytest.approx(expected_drift, rel=1e-2)
+
+
+def test_skipped_stations_and_overridden_warmup_are_shown(run_copy: Path) -> None:
+    meta = json.loads((run_copy / "run.json").read_text())
+    meta["skipped"] = [{"station": 3, "pass": 0, "reason": "chip <on> the rail"}]
+    meta["warmup"] = {"stable": False, "overridden": True, "duration_s": 600.0}
+    (run_copy / "run.json").write_text(json.dumps(meta))
+    doc = build_report(run_copy, mc_trials=0).read_text(encoding="utf-8")
+    skipped = table_with_header(doc, "station", "reason")
+    assert skipped[1:] == [["3", "forward", "chip <on> the rail"]]
+    assert "chip &lt;on&gt; the rail" in doc
+    assert '<p class="alert">Warm-up: not stable, overridden by the operator after 600 s.</p>' in doc
