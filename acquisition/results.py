@@ -9,6 +9,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 
 from processing.straightness import StraightnessResult  # noqa: E402
 
@@ -36,8 +38,35 @@ def write_straightness_results(results_dir: Path, result: StraightnessResult) ->
 
 
 def plot_profile(result: StraightnessResult, path: Path) -> None:
+    """Write :func:`profile_figure` to ``path`` (PNG, atomically)."""
+    save_figure(profile_figure(result), path)
+
+
+def save_figure(fig: Figure, path: Path) -> None:
+    """Save ``fig`` to ``path`` through a temporary file, then close it."""
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp)
+    plt.close(fig)
+    tmp.replace(path)
+
+
+def legend_above_data(ax: Axes, *, ncol: int = 1) -> None:
+    """Legend in the upper left corner, the y axis extended upwards so that no data lies
+    under it (whatever the shape of the curves)."""
+    legend = ax.legend(fontsize=8, loc="upper left", ncol=ncol)
+    fig = ax.figure
+    fig.tight_layout()  # measure in the final layout (the caller lays out again afterwards)
+    fig.canvas.draw()
+    bottom = legend.get_window_extent().transformed(ax.transAxes.inverted()).y0  # axes fraction
+    frac = max(bottom - 0.03, 0.35)  # where the current top of the data may go
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(lo, lo + (hi - lo) / frac)
+
+
+def profile_figure(result: StraightnessResult) -> Figure:
     """Profile with its reference lines (straightness per line in the legend), the
-    expanded-uncertainty band (k = 2) and, when present, the two passes."""
+    expanded-uncertainty band (k = 2) and, when present, the two passes; below it the
+    deviation from the minimum-zone line.  The caller closes the figure."""
     x = result.profile["x_mm"].to_numpy()
     h = result.profile["height_um"].to_numpy()
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(9, 7), dpi=110, sharex=True, height_ratios=(3, 2))
@@ -60,7 +89,7 @@ def plot_profile(result: StraightnessResult, path: Path) -> None:
     ax.set_ylabel("height (um), +Y")
     ax.set_title(f"Guideway base-surface profile ({result.method} decoupling)")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
+    legend_above_data(ax, ncol=2)
     fit = result.lines.get("minimum_zone")
     if fit is not None:
         d = fit.deviations_um
@@ -70,12 +99,9 @@ def plot_profile(result: StraightnessResult, path: Path) -> None:
         half = fit.straightness_um / 2
         ax2.axhline(half, color="tab:green", ls="-.", lw=1)
         ax2.axhline(-half, color="tab:green", ls="-.", lw=1, label=f"zone: {fit.straightness_um:.3f} um")
-        ax2.legend(fontsize=8)
+        legend_above_data(ax2, ncol=3)
     ax2.set_ylabel("deviation (um)")
     ax2.set_xlabel("x (mm), position of the sensor sample point from the first station")
     ax2.grid(True, alpha=0.3)
     fig.tight_layout()
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    tmp.replace(path)
+    return fig

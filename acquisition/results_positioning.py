@@ -10,7 +10,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 
+from .results import legend_above_data, save_figure  # noqa: E402
 from .runstore import write_json_atomic  # noqa: E402
 
 if TYPE_CHECKING:
@@ -37,15 +39,25 @@ def write_positioning_results(results_dir: Path, evaluation: PositioningEvaluati
 
 
 def plot_positioning(evaluation: PositioningEvaluation, path: Path) -> None:
-    """Every run, the mean per direction with its ±k·s band, and the reversal B_i per target."""
+    """Write :func:`positioning_figure` to ``path`` (PNG, atomically)."""
+    save_figure(positioning_figure(evaluation), path)
+
+
+def positioning_figure(evaluation: PositioningEvaluation) -> Figure:
+    """Every run, the mean per direction with its ±k·s band, and the reversal B_i per target.
+    The caller closes the figure."""
     r = evaluation.result
     pt = r.per_target
     dev = evaluation.deviations
     fig, (ax, axb) = plt.subplots(2, 1, figsize=(9, 6.5), dpi=110, sharex=True,
                                   gridspec_kw={"height_ratios": [3, 1]})
     colours = {1: "tab:blue", -1: "tab:red"}
-    for (d, _run), g in dev.sort_values("target").groupby(["direction", "run"]):
-        ax.plot(g["target"], g["deviation"], "-", color=colours[int(d)], lw=0.6, alpha=0.35)
+    labelled: set[int] = set()
+    runs = dev.sort_values("target").groupby(["direction", "run"])
+    for (d, _run), g in sorted(runs, key=lambda item: (-item[0][0], item[0][1])):  # up first
+        label = None if int(d) in labelled else f"each run {'up' if d == 1 else 'down'}"
+        labelled.add(int(d))
+        ax.plot(g["target"], g["deviation"], "-", color=colours[int(d)], lw=0.6, alpha=0.35, label=label)
     x = pt["target"].to_numpy()
     for d, col, s_col, label in ((1, "mean_up", "s_up", "up"), (-1, "mean_down", "s_down", "down")):
         mean = pt[col].to_numpy()
@@ -56,19 +68,22 @@ def plot_positioning(evaluation: PositioningEvaluation, path: Path) -> None:
         ax.fill_between(x, mean - ks, mean + ks, color=colours[d], alpha=0.15,
                         label=f"mean {label} ± {r.k:g} s")
     a = r.axis
-    vals = ", ".join(f"{q} = {a[q]:.3f}" for q in ("A", "E", "R", "B") if np.isfinite(a[q]))
-    ax.set_title(f"ISO 230-2 positioning ({r.directions}): {vals} {r.unit}", fontsize=10)
+    # the bidirectional value of each family, else the unidirectional one that was evaluated
+    families = (("A", "A_up", "A_down"), ("E", "E_up", "E_down"), ("R", "R_up", "R_down"), ("B",))
+    shown = [next((q for q in fam if np.isfinite(a[q])), None) for fam in families]
+    vals = ", ".join(f"{q} = {a[q]:.3f}" for q in shown if q is not None)
+    ax.set_title(f"{r.edition} positioning ({r.directions}): {vals} {r.unit}", fontsize=10)
     ax.set_ylabel(f"deviation actual - target ({r.unit})")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
+    legend_above_data(ax, ncol=3)
     rev = pt["reversal"].to_numpy()
     width = 0.6 * (np.min(np.diff(x)) if len(x) > 1 else 1.0)
     axb.bar(x, np.nan_to_num(rev), width=width, color="tab:gray")
+    if not np.isfinite(rev).any():
+        axb.text(0.5, 0.5, "no reversal: one direction measured", transform=axb.transAxes, ha="center",
+                 va="center", fontsize=9, color="0.3")
     axb.set_ylabel(f"reversal B_i ({r.unit})")
     axb.set_xlabel(f"target ({r.target_unit})")
     axb.grid(True, alpha=0.3)
     fig.tight_layout()
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    tmp.replace(path)
+    return fig

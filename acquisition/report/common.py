@@ -39,14 +39,14 @@ def run_section(page: HtmlPage, run: LoadedRun) -> None:
     page.key_values([
         ("run directory", str(run.path)),
         ("kind", m.get("kind", "")),
-        ("status", m.get("status", "")),
+        ("status", m.get("status", "") + (f" ({m['end_reason']})" if m.get("end_reason") else "")),
         ("created (UTC)", m.get("created", "")),
         ("ended (UTC)", m.get("ended", "—")),
         ("machine", m.get("machine", "")),
         ("axis", m.get("axis", "") or m.get("setup", {}).get("axis_name", "")),
         ("operator", m.get("operator", "")),
         ("notes", m.get("notes", "")),
-        ("points recorded", len(run.points)),
+        ("points recorded / planned", f"{len(run.points)} / {planned_points(m) or '—'}"),
         ("run format version", m.get("version", "")),
     ])
     for w in run.warnings:
@@ -79,11 +79,45 @@ def environment_section(page: HtmlPage, run: LoadedRun) -> None:
 CONVENTIONS_TEXT = (
     "Axes: X = travel, Y = up, Z = X × Y; roll εx about X, yaw εy about Y, pitch εz about Z, right-hand rule, "
     "R = Rz(εz)·Ry(εy)·Rx(εx). Deviations are errors (measured − nominal), not corrections. "
-    "Straightness profiles are heights (+Y) of the surface at the sensor's sample point relative to the first "
-    "station. See docs/conventions.md."
 )
+KIND_CONVENTIONS = {
+    "straightness": "Straightness profiles are heights (+Y) of the surface at the sensor's sample point relative to "
+                    "the first station; each straightness value names its reference line.",
+    "positioning": "Positioning deviations x_ij = actual − target (µm, rotary axes arcsec); ↑ = approach in the "
+                   "positive direction, ↓ = negative; compensation-table signs: docs/compensation.md.",
+}
 
 
-def conventions_section(page: HtmlPage) -> None:
+def conventions_section(page: HtmlPage, kind: str = "") -> None:
     page.heading("Conventions")
-    page.paragraph(CONVENTIONS_TEXT)
+    page.paragraph(CONVENTIONS_TEXT + KIND_CONVENTIONS.get(kind, "") + " See docs/conventions.md.")
+
+
+def planned_points(meta: dict[str, Any]) -> int | None:
+    """Points the run's plan asked for (None if run.json does not say).
+
+    Straightness: ``setup.stations`` (× 2 with ``setup.return_pass``); positioning:
+    targets × ``setup.runs`` (default 5) × 2 directions."""
+    setup = meta.get("setup") or {}
+    try:
+        if meta.get("kind") == "straightness":
+            stations = setup.get("stations")
+            return int(stations) * (2 if setup.get("return_pass") else 1) if stations is not None else None
+        if meta.get("kind") == "positioning":
+            targets = setup.get("targets_mm", setup.get("targets_deg"))
+            return len(targets) * int(setup.get("runs", 5)) * 2 if targets else None
+    except (TypeError, ValueError):
+        return None
+    return None
+
+
+def status_section(page: HtmlPage, run: LoadedRun) -> None:
+    """A boxed notice for runs that are not complete (aborted, or in progress = crashed)."""
+    status = run.meta.get("status", "")
+    if status == "complete":
+        return
+    planned = planned_points(run.meta)
+    recorded = f"{len(run.points)} of {planned} planned points" if planned else f"{len(run.points)} points"
+    reason = run.meta.get("end_reason")
+    page.alert(f"Run status: {status or 'unknown'}" + (f" ({reason})" if reason else "") +
+               f". {recorded} recorded; the results below cover only the points recorded.")

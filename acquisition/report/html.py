@@ -14,18 +14,29 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 CSS = """
-body { font-family: "DejaVu Sans", Arial, sans-serif; margin: 2em auto; max-width: 60em; color: #111; }
+body { font-family: "DejaVu Sans", Arial, "Noto Sans CJK SC", "Microsoft YaHei", "PingFang SC", "WenQuanYi Zen Hei",
+       sans-serif; margin: 2em auto; max-width: 60em; color: #111; }
 h1 { font-size: 1.5em; border-bottom: 2px solid #333; padding-bottom: .2em; }
 h2 { font-size: 1.2em; margin-top: 1.6em; border-bottom: 1px solid #999; }
 table { border-collapse: collapse; margin: .6em 0; font-size: .9em; }
 th, td { border: 1px solid #bbb; padding: .2em .6em; text-align: right; }
 th { background: #eee; }
 td.text, th.text { text-align: left; }
+table.kv td:first-child { white-space: nowrap; }
 figure { margin: 1em 0; page-break-inside: avoid; }
 figcaption { font-size: .85em; color: #444; }
 img { max-width: 100%; }
 .note { font-size: .85em; color: #444; }
-@media print { body { margin: 0; max-width: none; } h2 { page-break-after: avoid; } }
+.alert { border: 3px solid #b00; background: #fee; color: #600; font-weight: bold; padding: .5em .8em; }
+h3 { font-size: 1em; margin-top: 1.2em; }
+.footer { margin-top: 2em; border-top: 1px solid #999; }
+@media print {
+  body { margin: 0; max-width: none; font-size: 10pt; }
+  h2, h3 { page-break-after: avoid; }
+  tr { page-break-inside: avoid; }
+  thead { display: table-header-group; }  /* header row repeated on every printed page */
+  .alert { -webkit-print-color-adjust: exact; print-color-adjust: exact; }
+}
 """
 
 
@@ -42,7 +53,10 @@ def fmt(value: Any, digits: int = 3) -> str:
     if isinstance(value, int):
         return str(value)
     if isinstance(value, float):
-        return "—" if not math.isfinite(value) else f"{value:.{digits}f}"
+        if not math.isfinite(value):
+            return "—"
+        text = f"{value:.{digits}f}"
+        return text[1:] if text.startswith("-") and float(text) == 0 else text  # no "-0.000"
     return str(value)
 
 
@@ -71,18 +85,23 @@ class HtmlPage:
         self._parts.append(f"<p{attr}>{esc(text)}</p>")
 
     def table(self, header: Sequence[str], rows: Iterable[Sequence[Any]], *, digits: int = 3,
-              text_columns: Sequence[int] = (0,)) -> None:
+              text_columns: Sequence[int] = (0,), cls: str = "") -> None:
         def cell(tag: str, i: int, v: Any) -> str:
-            cls = ' class="text"' if i in text_columns else ""
-            return f"<{tag}{cls}>{esc(fmt(v, digits))}</{tag}>"
+            attr = ' class="text"' if i in text_columns else ""
+            return f"<{tag}{attr}>{esc(fmt(v, digits))}</{tag}>"
 
-        out = ["<table>", "<tr>" + "".join(cell("th", i, h) for i, h in enumerate(header)) + "</tr>"]
+        out = [f'<table class="{esc(cls)}">' if cls else "<table>",
+               "<thead><tr>" + "".join(cell("th", i, h) for i, h in enumerate(header)) + "</tr></thead>"]
         out += ["<tr>" + "".join(cell("td", i, v) for i, v in enumerate(row)) + "</tr>" for row in rows]
         out.append("</table>")
         self._parts.append("\n".join(out))
 
     def key_values(self, items: Iterable[tuple[str, Any]], *, digits: int = 3) -> None:
-        self.table(("item", "value"), items, digits=digits, text_columns=(0, 1))
+        self.table(("item", "value"), items, digits=digits, text_columns=(0, 1), cls="kv")
+
+    def alert(self, text: str) -> None:
+        """A boxed warning the reader cannot miss (also when printed)."""
+        self._parts.append(f'<p class="alert">{esc(text)}</p>')
 
     def image(self, png: bytes, caption: str) -> None:
         data = base64.b64encode(png).decode("ascii")

@@ -27,7 +27,8 @@ def test_page_is_self_contained_and_escaped() -> None:
     assert "http://" not in doc and "https://" not in doc  # nothing to fetch
 
 
-@pytest.mark.parametrize(("v", "s"), [(True, "yes"), (3, "3"), (2.0, "2.000"), (math.inf, "—"), ("t", "t")])
+@pytest.mark.parametrize(("v", "s"), [(True, "yes"), (3, "3"), (2.0, "2.000"), (math.inf, "—"), ("t", "t"),
+                                         (-1e-9, "0.000"), (-0.0005, "-0.001")])
 def test_fmt(v: object, s: str) -> None:
     assert fmt(v) == s
 

@@ -1,0 +1,127 @@
+"""Report sections of a positioning run: plot, ISO 230-2 table (English and GB/T names),
+VDI/DGQ 3441, per-target table, environmental compensation, notes and the residual
+after compensation per model.  Deviations in µm (linear) or arcsec (rotary)."""
+
+from __future__ import annotations
+
+from processing.iso230_2 import AXIS_QUANTITIES, QUANTITY_NAMES, VDI3441_NAMES, VDI3441_QUANTITIES
+
+from ..errors import UserError
+from ..evaluate_positioning import PositioningEvaluation
+from ..export import ExportOptions, build_export
+from ..results_positioning import positioning_figure
+from .html import HtmlPage, figure_png
+
+UNIT_TEXT = {"um": "µm", "arcsec": "arcsec", "mm": "mm", "deg": "°"}
+
+
+def positioning_sections(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
+    r = evaluation.result
+    unit = UNIT_TEXT[r.unit]
+    setup = evaluation.run.meta.get("setup") or {}
+    page.heading(f"Positioning ({r.edition})")
+    page.key_values([
+        ("standard", f"{r.edition} (formulas shared by the 1997, 2006 and 2014 editions); "
+                     "Chinese adoption GB/T 17421.2"),
+        ("axis", f"{setup.get('axis_name') or evaluation.run.meta.get('axis') or '—'} ({r.axis_type})"),
+        ("targets", len(r.per_target)),
+        ("approaches per target, ↑ / ↓", f"{r.runs_up} / {r.runs_down}"),
+        ("directions", r.directions),
+        ("coverage factor k", r.k),
+        ("deviation", f"x_ij = actual − target, {unit}, after environmental compensation"),
+    ], digits=3)
+    page.image(figure_png(positioning_figure(evaluation)),
+               f"Top: every approach (thin lines; blue ↑, red ↓), the mean per direction with its "
+               f"± {r.k:g} s band. Bottom: reversal value B_i per target ({unit}).")
+    iso_table(page, evaluation)
+    vdi_table(page, evaluation)
+    notes_section(page, evaluation)
+    environment_compensation_section(page, evaluation)
+    per_target_table(page, evaluation)
+    residual_section(page, evaluation)
+
+
+def iso_table(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
+    r = evaluation.result
+    page.heading(f"{r.edition} results (k = {r.k:g})", 3)
+    rows = [(q, r.axis[q], UNIT_TEXT[r.unit], *QUANTITY_NAMES[q]) for q in AXIS_QUANTITIES]
+    page.table(("symbol", "value", "unit", "ISO 230-2 name", "GB/T 17421.2 name"), rows, digits=3,
+               text_columns=(0, 2, 3, 4))
+    page.paragraph("— = not evaluable from this data (see the notes). GB/T names as commonly quoted; check "
+                   "the clause wording against the standard before quoting it in a contract.", "note")
+
+
+def vdi_table(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
+    r = evaluation.result
+    page.heading("VDI/DGQ 3441 (for comparison)", 3)
+    page.table(("symbol", "value", "unit", "name"),
+               [(q, r.vdi3441[q], UNIT_TEXT[r.unit], VDI3441_NAMES[q]) for q in VDI3441_QUANTITIES],
+               digits=3, text_columns=(0, 2, 3))
+
+
+def notes_section(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
+    if not evaluation.result.notes:
+        return
+    page.heading("Notes", 3)
+    for note in evaluation.result.notes:
+        page.paragraph(f"Note: {note}")
+
+
+def environment_compensation_section(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
+    env = evaluation.environment
+    page.heading("Environmental compensation", 3)
+    items: list[tuple[str, object]] = [("applied", env.applied), ("what / why", env.reason)]
+    if env.applied:
+        items += [
+            ("air-index equation", env.equation_name or env.equation),
+            ("formulas", "; ".join(env.formulas)),
+            ("index assumed by the controller", f"{env.refractive_index_assumed:.9f}"),
+            ("air index n, min … max", f"{env.index_min:.9f} … {env.index_max:.9f}"),
+            ("air index at the datum n0", f"{env.index_datum:.9f}"),
+            ("vacuum wavelength (nm)", env.wavelength_nm),
+            ("CO₂ (ppm)", env.co2_ppm),
+            ("dead path (mm)", env.dead_path_mm),
+            ("expansion coefficient (ppm/K)", env.expansion_ppm_per_k),
+        ]
+        if env.material_temp_min_c is not None:
+            items.append(("material temperature, min … max (°C)",
+                          f"{env.material_temp_min_c:.3f} … {env.material_temp_max_c:.3f}"))
+    page.key_values(items, digits=3)
+
+
+def per_target_table(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
+    r = evaluation.result
+    u = UNIT_TEXT[r.unit]
+    page.heading(f"Per target ({u})", 3)
+    cols = ("target_index", "target", "n_up", "n_down", "mean_up", "mean_down", "mean_bi", "reversal",
+            "s_up", "s_down", "R_i_up", "R_i_down", "R_i")
+    header = ("i", f"target ({UNIT_TEXT[r.target_unit]})", "n ↑", "n ↓", "x̄ ↑", "x̄ ↓", "x̄ bi", "B_i",
+              "s ↑", "s ↓", "R ↑", "R ↓", "R")
+    rows = [tuple(row) for row in r.per_target[list(cols)].itertuples(index=False)]
+    rows = [(int(t[0]), float(t[1]), int(t[2]), int(t[3]), *map(float, t[4:])) for t in rows]
+    page.table(header, rows, digits=3)
+    page.paragraph(f"x̄ = mean deviation, B_i = x̄↑ − x̄↓, s = standard uncertainty estimator (n − 1), "
+                   f"R↑/R↓ = 2·k·s, R = max(k·s↑ + k·s↓ + |B_i|, R↑, R↓), k = {r.k:g}.", "note")
+
+
+def residual_section(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
+    """The model comparison ``guideway export`` prints (CSV format: each model's own nodes)."""
+    page.heading("Residual after compensation, per model", 3)
+    try:
+        export = build_export(evaluation.result, ExportOptions(fmt="csv"))
+    except UserError as exc:
+        page.paragraph(f"Not computed: {exc}", "note")
+        return
+    u = UNIT_TEXT[export.error_unit]
+    rows = []
+    for row in export.comparison.itertuples(index=False):
+        if row.note:
+            rows.append((row.model, "—", None, None, None, None, f"not fitted: {row.note}"))
+            continue
+        pts = "—" if row.model == "none" else int(row.table_points)
+        rows.append((row.model, pts, row.max_abs, row.range, row.rms, row.reduction_pct, ""))
+    page.table(("model", "table points", f"max |r| ({u})", f"range ({u})", f"RMS ({u})",
+                "range reduction (%)", "note"), rows, digits=3, text_columns=(0, 6))
+    page.paragraph("Remaining error at the measured targets, both directions, after a bidirectional table of each "
+                   "model on its own nodes (as `guideway export --format csv`); the controller interpolates "
+                   "linearly between table points. 'none' = uncompensated.", "note")

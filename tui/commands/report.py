@@ -1,0 +1,37 @@
+"""``guideway report RUN_DIR``: a printable, self-contained HTML report of a saved run."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .process import METHOD_CHOICES, straightness_options
+
+
+def run(args: argparse.Namespace) -> int:
+    from acquisition.report.build import build_report
+    from acquisition.runstore import load_run
+
+    run_ = load_run(args.run_dir)
+    for w in run_.warnings:
+        print(f"guideway: warning: {w}", file=sys.stderr)
+    if run_.meta.get("status") != "complete":
+        print(f"guideway: warning: run status is {run_.meta.get('status')!r}; the report covers the "
+              f"{len(run_.points)} point(s) recorded", file=sys.stderr)
+    path = build_report(args.run_dir, out=args.out, **straightness_options(args))
+    print(f"report written to {path}")
+    return 0
+
+
+def register(sub) -> None:  # noqa: ANN001
+    rp = sub.add_parser("report", help="write a printable HTML report of a saved run",
+                        description="Evaluate a saved run and write one self-contained HTML file (plots "
+                                    "embedded) with the results, instruments, environment and conventions.")
+    rp.add_argument("run_dir", type=Path)
+    rp.add_argument("--out", type=Path, default=None, help="HTML file to write (default RUN_DIR/results/report.html)")
+    rp.add_argument("--method", choices=METHOD_CHOICES, default=None,
+                    help="straightness decoupling method (default: exact)")
+    rp.add_argument("--mc-trials", type=int, default=None, metavar="N",
+                    help="Monte Carlo trials for the straightness uncertainty (default 10000; 0 = off)")
+    rp.set_defaults(func=run)
