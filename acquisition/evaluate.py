@@ -11,7 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol, TextIO
 
-from .errors import RunFormatError
+from .errors import RunFormatError, UserError
 from .evaluate_positioning import evaluate_positioning_run
 from .evaluate_straightness import evaluate_straightness_run
 from .runstore import LoadedRun, load_run
@@ -31,12 +31,31 @@ EVALUATORS: dict[str, Callable[..., Evaluation]] = {
 }
 
 
+# The options each evaluator takes (command-line flags --method, --mc-trials, --k, --edition).
+EVALUATOR_OPTIONS: dict[str, tuple[str, ...]] = {
+    "straightness": ("method", "mc_trials"),
+    "positioning": ("k", "edition"),
+}
+
+
+def option_flags(names: Any) -> str:
+    return ", ".join(f"--{n.replace('_', '-')}" for n in names)
+
+
 def evaluate_run(run: LoadedRun, **options: Any) -> Evaluation:
-    """Evaluate a loaded run with the evaluator for its kind."""
+    """Evaluate a loaded run with the evaluator for its kind.
+
+    ``options`` that are None are left out; one that the run's kind does not take is a
+    one-line :class:`UserError` (e.g. ``--method`` on a positioning run)."""
     try:
         evaluator = EVALUATORS[run.kind]
     except KeyError:
         raise RunFormatError(f"{run.path}: no evaluator for {run.kind!r} runs in this version") from None
+    options = {k: v for k, v in options.items() if v is not None}
+    wrong = [k for k in options if k not in EVALUATOR_OPTIONS[run.kind]]
+    if wrong:
+        raise UserError(f"{option_flags(wrong)}: not an option for {run.kind} runs ({run.path} is one; "
+                        f"they take {option_flags(EVALUATOR_OPTIONS[run.kind])})")
     return evaluator(run, **options)
 
 

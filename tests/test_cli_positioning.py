@@ -96,3 +96,20 @@ def test_process_positioning_without_assumed_index(tmp_path: Path, capsys: pytes
     assert main(["process", str(out), "--no-write"]) == 2
     err = capsys.readouterr().err
     assert "refractive_index_assumed is missing" in err and len(err.strip().splitlines()) == 1
+
+
+def test_process_positioning_coverage_factor_edition_and_wrong_option(tmp_path: Path) -> None:
+    data = tmp_path / "pos.csv"
+    data.write_text(CSV)
+    out = tmp_path / "run"
+    assert guideway("import", "positioning", str(data), "--out", str(out), "--compensated").returncode == 0
+    k2 = json.loads(guideway("process", str(out), "--json", "--no-write").stdout)
+    res = guideway("process", str(out), "--json", "--no-write", "--k", "3", "--edition", "ISO 230-2:2006")
+    assert res.returncode == 0, res.stderr
+    k3 = json.loads(res.stdout)
+    # R_up = max_i 2 k s_i(up): proportional to k; the means do not depend on k.
+    assert k3["iso230_2"]["R_up"] == pytest.approx(1.5 * k2["iso230_2"]["R_up"], rel=1e-12)
+    assert k3["iso230_2"]["E"] == pytest.approx(k2["iso230_2"]["E"], rel=1e-12)
+    assert "ISO 230-2:2006" in json.dumps(k3)
+    one_line_error(guideway("process", str(out), "--method", "exact"), "--method", "not an option for positioning")
+    one_line_error(guideway("process", str(out), "--k", "0"), "--k must be a positive")

@@ -19,8 +19,6 @@ from ..runstore import LoadedRun, load_run
 from .common import conventions_section, environment_section, instruments_section, run_section, status_section
 from .html import HtmlPage
 
-STRAIGHTNESS_OPTIONS = ("method", "mc_trials")
-
 
 def tool_version() -> str:
     try:
@@ -43,9 +41,6 @@ def evaluate_for_report(run: LoadedRun, options: dict[str, Any]) -> tuple[Any, s
     """(evaluation, None), or (None, why) for an unfinished run that cannot be evaluated.
 
     A complete run that cannot be evaluated is an error (RunFormatError), as in ``process``."""
-    if run.kind != "straightness" and options:
-        flags = ", ".join(f"--{k.replace('_', '-')}" for k in options)
-        raise UserError(f"{flags}: option(s) for straightness runs; {run.path} is a {run.kind} run")
     try:
         return evaluate_run(run, **options), None
     except RunFormatError as exc:
@@ -97,12 +92,9 @@ def build_report(run_dir: Path | str, *, out: Path | str | None = None, **option
     """Evaluate ``run_dir`` and write its HTML report; return the file written.
 
     ``out`` defaults to ``RUN_DIR/results/report.html``.  ``options`` go to the
-    straightness evaluator (``method``, ``mc_trials``); only those given are used."""
+    evaluator (acquisition.evaluate.EVALUATOR_OPTIONS); only those given are used."""
     run = load_run(run_dir)
     options = {k: v for k, v in options.items() if v is not None}
-    unknown = set(options) - set(STRAIGHTNESS_OPTIONS)
-    if unknown:
-        raise TypeError(f"unknown report option(s): {', '.join(sorted(unknown))}")
     evaluation, why = evaluate_for_report(run, options)
     html = render_report(run, evaluation, not_evaluated=why, command=report_command(run_dir, out, options))
     path = Path(out) if out is not None else run.path / "results" / "report.html"

@@ -11,7 +11,7 @@ from pathlib import Path
 def run(args: argparse.Namespace) -> int:
     from acquisition.evaluate import process_run_dir
 
-    run_, result = process_run_dir(args.run_dir, **straightness_options(args))
+    run_, result = process_run_dir(args.run_dir, **evaluator_options(args))
     for w in run_.warnings:
         print(f"guideway: warning: {w}", file=sys.stderr)
     if run_.meta.get("status") != "complete":
@@ -32,11 +32,23 @@ def run(args: argparse.Namespace) -> int:
 METHOD_CHOICES = ("exact", "first-order", "patent")
 
 
-def straightness_options(args: argparse.Namespace) -> dict[str, object]:
-    """Evaluator options given on the command line (only those set, so other run kinds are unaffected)."""
+EDITION_CHOICES = ("ISO 230-2:1997", "ISO 230-2:2006", "ISO 230-2:2014")
+
+
+def evaluator_options(args: argparse.Namespace) -> dict[str, object]:
+    """Evaluator options given on the command line (only those set; one the run's kind does not
+    take is refused by acquisition.evaluate.evaluate_run)."""
     opts: dict[str, object] = {}
     if args.method is not None:
         opts["method"] = args.method
+    if getattr(args, "k", None) is not None:
+        if not args.k > 0:
+            from acquisition.errors import UserError
+
+            raise UserError(f"--k must be a positive coverage factor, got {args.k}")
+        opts["k"] = args.k
+    if getattr(args, "edition", None) is not None:
+        opts["edition"] = args.edition
     if args.mc_trials is not None:
         if args.mc_trials < 0 or args.mc_trials == 1:
             from acquisition.errors import UserError
@@ -46,14 +58,23 @@ def straightness_options(args: argparse.Namespace) -> dict[str, object]:
     return opts
 
 
+def add_evaluator_options(parser: argparse.ArgumentParser) -> None:
+    """The evaluation options shared by ``process`` and ``report``."""
+    # literal (not imported) so `guideway --help` loads no numpy; tests/test_cli.py checks it
+    parser.add_argument("--method", choices=METHOD_CHOICES, default=None,
+                        help="straightness decoupling method (default: exact; see docs/conventions.md)")
+    parser.add_argument("--mc-trials", type=int, default=None, metavar="N",
+                        help="Monte Carlo trials for the straightness uncertainty (default 10000; 0 = off)")
+    parser.add_argument("--k", type=float, default=None,
+                        help="ISO 230-2 coverage factor for a positioning run (default 2)")
+    parser.add_argument("--edition", choices=EDITION_CHOICES, default=None,
+                        help="ISO 230-2 edition recorded for a positioning run (default ISO 230-2:2014)")
+
+
 def register(sub) -> None:  # noqa: ANN001
     pr = sub.add_parser("process", help="evaluate a saved run and write its results")
     pr.add_argument("run_dir", type=Path)
     pr.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     pr.add_argument("--no-write", action="store_true", help="do not write results/")
-    # literal (not imported) so `guideway --help` loads no numpy; tests/test_cli.py checks it
-    pr.add_argument("--method", choices=METHOD_CHOICES, default=None,
-                    help="straightness decoupling method (default: exact; see docs/conventions.md)")
-    pr.add_argument("--mc-trials", type=int, default=None, metavar="N",
-                    help="Monte Carlo trials for the straightness uncertainty (default 10000; 0 = off)")
+    add_evaluator_options(pr)
     pr.set_defaults(func=run)

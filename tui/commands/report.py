@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .process import METHOD_CHOICES, straightness_options
+from .process import add_evaluator_options, evaluator_options
 
 
 def run(args: argparse.Namespace) -> int:
@@ -19,7 +19,7 @@ def run(args: argparse.Namespace) -> int:
     if run_.meta.get("status") != "complete":
         print(f"guideway: warning: run status is {run_.meta.get('status')!r}; the report covers the "
               f"{len(run_.points)} point(s) recorded", file=sys.stderr)
-    path = build_report(args.run_dir, out=args.out, **straightness_options(args))
+    path = build_report(args.run_dir, out=args.out, **evaluator_options(args))
     print(f"report written to {path}")
     return 0
 
@@ -30,8 +30,5 @@ def register(sub) -> None:  # noqa: ANN001
                                     "embedded) with the results, instruments, environment and conventions.")
     rp.add_argument("run_dir", type=Path)
     rp.add_argument("--out", type=Path, default=None, help="HTML file to write (default RUN_DIR/results/report.html)")
-    rp.add_argument("--method", choices=METHOD_CHOICES, default=None,
-                    help="straightness decoupling method (default: exact)")
-    rp.add_argument("--mc-trials", type=int, default=None, metavar="N",
-                    help="Monte Carlo trials for the straightness uncertainty (default 10000; 0 = off)")
+    add_evaluator_options(rp)
     rp.set_defaults(func=run)
