@@ -20,11 +20,15 @@ from processing.compensation.fanuc import fanuc_pitch_table, fanuc_text, round_h
 from processing.compensation.generic_csv import csv_text
 from processing.compensation.linuxcnc import linuxcnc_comp_text
 from processing.compensation.models import DEFAULT_POLYNOMIAL_DEGREE, MODEL_NAMES
-from processing.compensation.residuals import compare_models
+from processing.compensation.residuals import compare_models, format_comparison
 from processing.compensation.siemens import siemens_lec_text
-from processing.compensation.tables import ErrorTable, equidistant_grid, fit_curves, tabulate
+from processing.compensation.tables import MODES, ErrorTable, equidistant_grid, fit_curves, tabulate
 
 from .errors import UserError
+
+# What the command line needs of the compensation package (tui imports acquisition only).
+__all__ = ["DEFAULT_POLYNOMIAL_DEGREE", "FORMATS", "MODEL_NAMES", "MODES", "Export", "ExportOptions",
+           "build_export", "export_run", "format_comparison"]
 
 FORMATS = ("linuxcnc", "fanuc", "siemens", "csv")
 SUFFIX = {"linuxcnc": ".comp", "fanuc": ".txt", "siemens": ".ini", "csv": ".csv"}

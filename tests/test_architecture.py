@@ -12,7 +12,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("acquisition", "drivers", "processing", "tui", "mocks")
 MAY_IMPORT = {
-    "tui": {"acquisition", "processing", "drivers"},
+    "tui": {"acquisition"},
     "acquisition": {"processing", "drivers"},
     "processing": set(),
     "drivers": set(),
@@ -62,11 +62,13 @@ def test_checker_catches_a_crossed_layer(tmp_path: Path) -> None:
     (tmp_path / "processing" / "ui.py").write_text("def f():\n    import textual.app\n")
     (tmp_path / "acquisition" / "other.py").write_text("import mocks.world\n")
     (tmp_path / "acquisition" / "simulation.py").write_text("import mocks.world\n")
+    (tmp_path / "tui" / "view.py").write_text("from drivers.errors import DriverError\n")
     found = violations(tmp_path)
     assert found == [
         "acquisition/other.py:1 (acquisition) imports mocks.world",
         "drivers/bad.py:1 (drivers) imports acquisition",
         "processing/ui.py:2 imports textual outside tui",
+        "tui/view.py:1 (tui) imports drivers.errors",
     ]
 
 

@@ -12,8 +12,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from acquisition.errors import UserError
-from drivers.errors import DriverError
+from acquisition.errors import EXPECTED_ERRORS
 
 from .commands import register_all
 
@@ -39,7 +38,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))
-    except (UserError, DriverError) as exc:
+    except EXPECTED_ERRORS as exc:
         print(f"guideway: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

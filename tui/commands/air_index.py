@@ -4,24 +4,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.errors import UserError
-    from processing.air_index import EQUATION_NAMES, air_index
+    from acquisition.air import EQUATION_NAMES, checked_air_index
 
-    checks = (("--t-c", args.t_c, -40, 100), ("--p-pa", args.p_pa, 10e3, 140e3), ("--rh", args.rh, 0, 100),
-              ("--co2-ppm", args.co2_ppm, 0, 2000), ("--wavelength-nm", args.wavelength_nm, 300, 1700))
-    for flag, value, lo, hi in checks:
-        if not (math.isfinite(value) and lo <= value <= hi):
-            raise UserError(f"{flag} {value:g} is outside the range of the equations ({lo:g} to {hi:g})")
-    n = float(air_index(args.t_c, args.p_pa, args.rh, co2_ppm=args.co2_ppm, wavelength_nm=args.wavelength_nm,
-                        equation=args.equation))
+    result = checked_air_index(args.t_c, args.p_pa, args.rh, co2_ppm=args.co2_ppm,
+                               wavelength_nm=args.wavelength_nm, equation=args.equation)
+    n = result["n"]
     if args.json:
-        json.dump({"n": n, "equation": args.equation, "t_c": args.t_c, "p_pa": args.p_pa, "rh_pct": args.rh,
-                   "co2_ppm": args.co2_ppm, "wavelength_nm": args.wavelength_nm}, sys.stdout)
+        json.dump(result, sys.stdout)
         sys.stdout.write("\n")
     else:
         print(f"n = {n!r}  ({EQUATION_NAMES[args.equation]}; t = {args.t_c:g} C, p = {args.p_pa:g} Pa, "
@@ -30,7 +23,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub) -> None:  # noqa: ANN001
-    from processing.air_index import DEFAULT_CO2_PPM, DEFAULT_EQUATION, EQUATIONS, HENE_WAVELENGTH_NM
+    from acquisition.air import DEFAULT_CO2_PPM, DEFAULT_EQUATION, EQUATIONS, HENE_WAVELENGTH_NM
 
     pa = sub.add_parser("air-index", help="refractive index of air (modified Edlén or Ciddor)")
     pa.add_argument("--t-c", type=float, required=True, help="air temperature (C)")

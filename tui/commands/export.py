@@ -8,8 +8,7 @@ from pathlib import Path
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.export import ExportOptions, export_run
-    from processing.compensation.residuals import format_comparison
+    from acquisition.export import ExportOptions, export_run, format_comparison
 
     options = ExportOptions(
         fmt=args.format, model=args.model, mode=args.mode, step=args.step, tolerance=args.tolerance,
@@ -41,9 +40,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub) -> None:  # noqa: ANN001
-    from acquisition.export import FORMATS
-    from processing.compensation.models import DEFAULT_POLYNOMIAL_DEGREE, MODEL_NAMES
-    from processing.compensation.tables import MODES
+    from acquisition.export import DEFAULT_POLYNOMIAL_DEGREE, FORMATS, MODEL_NAMES, MODES
 
     ex = sub.add_parser("export", help="write a CNC compensation table from a positioning run",
                         description="Model the per-target mean deviations of a positioning run and write a "

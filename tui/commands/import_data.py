@@ -28,7 +28,7 @@ def run_positioning(args: argparse.Namespace) -> int:
 
 
 def register(sub) -> None:  # noqa: ANN001
-    from processing.air_index import DEFAULT_EQUATION, EQUATIONS
+    from acquisition.air import DEFAULT_EQUATION, EQUATIONS
 
     pi = sub.add_parser("import", help="import measured data from a CSV file as a run directory")
     kinds = pi.add_subparsers(dest="import_kind", required=True, parser_class=type(pi))
