@@ -1,5 +1,5 @@
-"""Layer contract: tui -> acquisition -> (processing | drivers); mocks may use
-processing only; only acquisition/simulation.py imports mocks; only tui imports
+"""Layer contract: tui -> acquisition -> (processing | drivers), tui importing
+acquisition only; mocks may use processing only; only acquisition/simulation.py imports mocks; only tui imports
 textual.  Checked by walking every import statement (including lazy ones)."""
 
 from __future__ import annotations
