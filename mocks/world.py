@@ -233,6 +233,7 @@ class World:
         self._pose = self.solve_pose(0.0)
         self._datum = self._pose
         self.sample_log: list[tuple[int, np.ndarray]] = []
+        self._hit_cache: tuple[Pose, Guideway, BlockSetup, float, np.ndarray] | None = None
 
     # -- kinematics ---------------------------------------------------------------------
     def solve_pose(self, x_rear_mm: float) -> Pose:
@@ -289,7 +290,7 @@ class World:
             df = d[1] - sx * d[0] - sz * d[2]
             step = f / df
             lam -= step
-            if abs(step) < 1e-15:
+            if abs(step) < 1e-13:  # 1e-7 nm; smaller steps only chase the rounding of p[1] (~30 mm terms)
                 break
         return lam, e + lam * d
 
@@ -339,9 +340,19 @@ class World:
         with self._lock:
             if self.beam_blocked:
                 return None
-            lam, hit = self.beam_hit(self._pose)
+            lam, hit = self._current_beam_hit()
             self.sample_log.append((self.station, hit))
             return lam + self._n(self.noise.sensor_um) * 1e-3
+
+    def _current_beam_hit(self) -> tuple[float, np.ndarray]:
+        """beam_hit of the current pose, solved once per placement (every sample of a reading needs it)."""
+        pose, g, b = self._pose, self.guideway, self.block
+        c = self._hit_cache
+        if c is None or c[0] is not pose or c[1] is not g or c[2] is not b:
+            lam, hit = self.beam_hit(pose)
+            hit.flags.writeable = False  # shared by the sample log entries of this placement
+            c = self._hit_cache = (pose, g, b, lam, hit)
+        return c[3], c[4]
 
     def environment_now(self) -> tuple[float, float, float, float]:
         """(air temp C, pressure hPa, humidity %RH, material temp C)."""

@@ -88,3 +88,46 @@ def test_placed_pose_is_the_solved_pose() -> None:
     r_ref, t_ref = reference_pose(world.guideway, world.block, 17 * world.block.length_mm)
     assert np.max(np.abs(world.pose.t - t_ref)) < 1e-9
     assert np.max(np.abs(world.pose.r - r_ref)) < 1e-11
+
+
+def _bisect_beam_hit(world: World, r: np.ndarray, t: np.ndarray) -> float:
+    """Beam length (mm) from the sensor head to the surface by bisection on the height gap."""
+    e = r @ np.array(world.block.sensor_head_mm) + t
+    d = r @ np.array(world.block.beam)
+
+    def gap(lam: float) -> float:
+        p = e + lam * d
+        return p[1] - world.guideway.height_mm(p[0], p[2])
+
+    lo, hi = 0.0, 2 * world.block.sensor_head_mm[1]  # head above the surface, then below it
+    assert gap(lo) > 0 > gap(hi)
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if mid in (lo, hi):
+            break
+        lo, hi = (mid, hi) if gap(mid) > 0 else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+@pytest.mark.parametrize("guideway", [None, ROUGH], ids=["default", "rough"])
+def test_sensor_reading_is_the_beam_length_to_the_surface(guideway: Guideway | None) -> None:
+    world = World(seed=5, guideway=guideway, noise=Noise.off())
+    for k in range(30):
+        world.place_block(k)
+        r_ref, t_ref = reference_pose(world.guideway, world.block, k * world.block.length_mm)
+        expected = _bisect_beam_hit(world, r_ref, t_ref)
+        for _ in range(3):  # every sample of the placement (the solved hit is reused)
+            assert abs(world.sensor_distance_mm() - expected) < 1e-9  # type: ignore[operator]
+        assert np.linalg.norm(world.true_sample_point(k) - world.sample_log[-1][1]) < 1e-12
+    assert len(world.sample_log) == 90 and [s for s, _ in world.sample_log[-3:]] == [29, 29, 29]
+
+
+def test_sensor_reading_follows_a_new_placement_at_the_same_station() -> None:
+    world = World(seed=8, noise=Noise(0.0, 0.0, 0.0, 0.0, placement_um=5000.0))  # lands elsewhere
+    readings = []
+    for _ in range(2):
+        world.place_block(4)
+        pose = world.pose
+        readings.append(world.sensor_distance_mm())
+        assert abs(readings[-1] - _bisect_beam_hit(world, pose.r, pose.t)) < 1e-9  # type: ignore[operator]
+    assert abs(readings[0] - readings[1]) > 1e-6  # a stale beam hit would fail the check above
