@@ -8,9 +8,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-import pandas as pd
+import numpy as np
 
-from processing.decoupling import decouple
+from processing.decoupling import DECOUPLERS, DEFAULT_METHOD, Channels, Setup
 from processing.geometry import BlockGeometry
 
 HeightCallback = Callable[[int, int, float], None]  # (pass, station, height_um)
@@ -28,14 +28,17 @@ class LiveProfile:
         self.on_height = on_height
         self.first = first
         self.heights: dict[tuple[int, int], float] = {}
+        self._setup = Setup.from_geometry(geometry)
 
     def __call__(self, name: str, doc: dict[str, Any]) -> None:
         if name == "event" and doc.get("stream", "primary") == "primary":
             row = doc["data"]
             if self.first is None:
                 self.first = row
-            frame = pd.DataFrame([self.first, row])
-            h = float(decouple(frame, self.geometry)["height_um"].iloc[-1])
+            # processing.decoupling.decouple on the two points, without building a DataFrame per point
+            first = self.first
+            channels = Channels(**{f: np.array([first[f], row[f]], dtype=float) for f in Channels.__dataclass_fields__})
+            h = float(DECOUPLERS[DEFAULT_METHOD](channels, self._setup)[1][-1])
             key = (int(row.get("pass", 0)), int(row["station"]))
             self.heights[key] = h
             if self.on_height is not None:

@@ -117,6 +117,7 @@ class PtyEndpoint(_Endpoint):
         super().__init__(emulator, baudrate, bits_per_char, faults, device)
         self.link = Path(link) if link is not None else None
         self._open_pair()
+        self._wake_r, self._wake_w = os.pipe()  # stop() wakes the serving select at once
         self.start()
 
     def _open_pair(self) -> None:
@@ -137,8 +138,8 @@ class PtyEndpoint(_Endpoint):
 
     def _run(self) -> None:
         while not self._stop.is_set():
-            ready, _, _ = select.select([self._master], [], [], 0.05)
-            if not ready:
+            ready, _, _ = select.select([self._master, self._wake_r], [], [], 0.05)
+            if self._master not in ready:
                 continue
             t_in = time.monotonic()
             try:
@@ -163,8 +164,17 @@ class PtyEndpoint(_Endpoint):
         os.write(self._master, data)
 
     def stop(self) -> None:
+        self._stop.set()
+        if self._wake_w >= 0:
+            with contextlib.suppress(OSError):
+                os.write(self._wake_w, b"\0")
         super().stop()
         self._close_pair()
+        for fd in (self._wake_r, self._wake_w):
+            if fd >= 0:
+                with contextlib.suppress(OSError):
+                    os.close(fd)
+        self._wake_r = self._wake_w = -1  # a second stop() must not touch re-used descriptor numbers
         if self.link is not None:
             with contextlib.suppress(OSError):
                 self.link.unlink()

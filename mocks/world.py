@@ -6,7 +6,8 @@ R = Rz(ez) Ry(ey) Rx(ex).  The block frame has its origin at the rear, bottom,
 centre of the block.  The block rests on three pads (rear-left, rear-right,
 front-centre) on the guideway base surface and is pressed against the side
 face at two points (rear and front); its pose is solved exactly (Newton on the
-six contact equations), with no small-angle approximation.
+six contact equations with their analytic Jacobian), with no small-angle
+approximation.
 
 The interferometer is zeroed at the datum pose; its frame is the block frame
 at the datum, so it reports the displacement of the mirror point P and the
@@ -153,6 +154,28 @@ def rotation(ex: float, ey: float, ez: float) -> np.ndarray:
     return rot_z(ez) @ rot_y(ey) @ rot_x(ex)
 
 
+def _rotation_and_derivatives(ex: float, ey: float, ez: float) -> tuple[np.ndarray, np.ndarray]:
+    """R = Rz(ez) Ry(ey) Rx(ex) and its partial derivatives dR/d(ex, ey, ez) stacked (3, 3, 3)."""
+    rx, ry, rz = rot_x(ex), rot_y(ey), rot_z(ez)
+    cx, sx = math.cos(ex), math.sin(ex)
+    cy, sy = math.cos(ey), math.sin(ey)
+    cz, sz = math.cos(ez), math.sin(ez)
+    drx = np.array([[0, 0, 0], [0, -sx, -cx], [0, cx, -sx]])
+    dry = np.array([[-sy, 0, cy], [0, 0, 0], [-cy, 0, -sy]])
+    drz = np.array([[-sz, -cz, 0], [cz, -sz, 0], [0, 0, 0]])
+    rzy = rz @ ry
+    return rzy @ rx, np.stack((rzy @ drx, rz @ dry @ rx, drz @ ry @ rx))
+
+
+def _side_slope(g: Guideway, x_mm: float) -> float:
+    """d side(x) / dx of the side face (rad)."""
+    dz = 0.0
+    for w in g.side_waves:
+        k = 2 * math.pi / w.wavelength_mm
+        dz += w.amplitude_um * 1e-3 * k * math.cos(k * x_mm + w.phase_rad)
+    return dz
+
+
 def euler_zyx(r: np.ndarray) -> tuple[float, float, float]:
     """(ex, ey, ez) with r = Rz(ez) Ry(ey) Rx(ex)."""
     ey = -math.asin(max(-1.0, min(1.0, r[2, 0])))
@@ -210,43 +233,49 @@ class World:
         self._pose = self.solve_pose(0.0)
         self._datum = self._pose
         self.sample_log: list[tuple[int, np.ndarray]] = []
+        self._hit_cache: tuple[Pose, Guideway, BlockSetup, float, np.ndarray] | None = None
 
     # -- kinematics ---------------------------------------------------------------------
     def solve_pose(self, x_rear_mm: float) -> Pose:
-        """Exact resting pose with the block's rear end at world x = ``x_rear_mm``."""
+        """Exact resting pose with the block's rear end at world x = ``x_rear_mm``.
+
+        Newton on the six contact equations (three pads on the base surface, two
+        side contacts, the rear end's x) with their analytic Jacobian.
+        """
         g, b = self.guideway, self.block
         half = b.width_mm / 2
-        pads = np.array([[0.0, 0.0, -half], [0.0, 0.0, half], [b.length_mm, 0.0, 0.0]])
-        sides = np.array([[0.0, b.side_contact_height_mm, -half],
-                          [b.length_mm, b.side_contact_height_mm, -half]])
-
-        def residual(u: np.ndarray) -> np.ndarray:
-            r = rotation(u[0], u[1], u[2])
-            t = u[3:]
-            res = []
-            for p in pads:
-                w = r @ p + t
-                res.append(w[1] - g.height_mm(w[0], w[2]))
-            for p in sides:
-                w = r @ p + t
-                res.append(w[2] - (-half + g.side_mm(w[0])))
-            res.append(t[0] - x_rear_mm)
-            return np.array(res)
-
+        # contact points (block frame, one per column): three pads, then two side contacts
+        pts = np.array([[0.0, 0.0, b.length_mm, 0.0, b.length_mm],
+                        [0.0, 0.0, 0.0, b.side_contact_height_mm, b.side_contact_height_mm],
+                        [-half, half, 0.0, -half, -half]])
         u = np.array([0.0, 0.0, 0.0, x_rear_mm, g.height_mm(x_rear_mm, 0.0), 0.0])
+        f = np.empty(6)
+        jac = np.zeros((6, 6))
+        jac[5, 3] = 1.0  # the rear-end constraint t_x = x_rear
         for _ in range(30):
-            f = residual(u)
+            r, dr = _rotation_and_derivatives(u[0], u[1], u[2])
+            t = u[3:]
+            w = (r @ pts).T + t  # world contact points, one per row
+            dw = dr @ pts  # dw[j, :, i]: d(contact i) / d(angle j)
+            for i in range(3):  # pads: w_y - h(w_x, w_z)
+                x, z = float(w[i, 0]), float(w[i, 2])
+                hx, hz = g.height_slope(x, z)
+                f[i] = w[i, 1] - g.height_mm(x, z)
+                jac[i, :3] = dw[:, 1, i] - hx * dw[:, 0, i] - hz * dw[:, 2, i]
+                jac[i, 3:] = (-hx, 1.0, -hz)
+            for i in (3, 4):  # side contacts: w_z - side(w_x)
+                x = float(w[i, 0])
+                sx = _side_slope(g, x)
+                f[i] = w[i, 2] - (-half + g.side_mm(x))
+                jac[i, :3] = dw[:, 2, i] - sx * dw[:, 0, i]
+                jac[i, 3:] = (-sx, 0.0, 1.0)
+            f[5] = t[0] - x_rear_mm
             if np.max(np.abs(f)) < 1e-13:
                 break
-            jac = np.empty((6, 6))
-            for j in range(6):
-                du = np.zeros(6)
-                du[j] = 1e-7
-                jac[:, j] = (residual(u + du) - residual(u - du)) / 2e-7
             u = u - np.linalg.solve(jac, f)
         else:  # pragma: no cover - the contact problem is well conditioned
             raise RuntimeError("block pose did not converge")
-        return Pose(rotation(u[0], u[1], u[2]), u[3:].copy())
+        return Pose(r, t.copy())
 
     def beam_hit(self, pose: Pose) -> tuple[float, np.ndarray]:
         """(distance from E along the beam, world point) where the beam meets the surface."""
@@ -261,7 +290,7 @@ class World:
             df = d[1] - sx * d[0] - sz * d[2]
             step = f / df
             lam -= step
-            if abs(step) < 1e-15:
+            if abs(step) < 1e-13:  # 1e-7 nm; smaller steps only chase the rounding of p[1] (~30 mm terms)
                 break
         return lam, e + lam * d
 
@@ -311,9 +340,19 @@ class World:
         with self._lock:
             if self.beam_blocked:
                 return None
-            lam, hit = self.beam_hit(self._pose)
+            lam, hit = self._current_beam_hit()
             self.sample_log.append((self.station, hit))
             return lam + self._n(self.noise.sensor_um) * 1e-3
+
+    def _current_beam_hit(self) -> tuple[float, np.ndarray]:
+        """beam_hit of the current pose, solved once per placement (every sample of a reading needs it)."""
+        pose, g, b = self._pose, self.guideway, self.block
+        c = self._hit_cache
+        if c is None or c[0] is not pose or c[1] is not g or c[2] is not b:
+            lam, hit = self.beam_hit(pose)
+            hit.flags.writeable = False  # shared by the sample log entries of this placement
+            c = self._hit_cache = (pose, g, b, lam, hit)
+        return c[3], c[4]
 
     def environment_now(self) -> tuple[float, float, float, float]:
         """(air temp C, pressure hPa, humidity %RH, material temp C)."""
