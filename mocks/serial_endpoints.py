@@ -158,8 +158,15 @@ class PtyEndpoint(_Endpoint):
         with contextlib.suppress(OSError):  # the driver may have closed its side meanwhile
             os.write(self._master, data)
 
-    def write_unsolicited(self, data: bytes) -> None:
-        """Send bytes the device emits on its own (streaming, garbage injection)."""
+    def write_unsolicited(self, data: bytes, *, drop_when_full: bool = False) -> None:
+        """Send bytes the device emits on its own (streaming, garbage injection).
+
+        ``drop_when_full``: if the pty's buffer is full (nobody has read the
+        stream for a while) the bytes are lost, as on a serial line without a
+        reader, instead of blocking the caller until a driver reads.
+        """
+        if drop_when_full and not select.select([], [self._master], [], 0)[1]:
+            return
         os.write(self._master, data)
 
     def stop(self) -> None:
