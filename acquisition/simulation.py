@@ -62,7 +62,7 @@ def ild1420_distance_mm(height_mm: float) -> float:
 
 
 def _ild1420_stream(emulator: ILD1420Emulator, write: Callable[[bytes], None]) -> Stream:
-    # the measuring rate is the emulator's own (a MEASRATE command changes it)
+    # at the emulator's measuring rate (1 kHz here; a MEASRATE command changes it)
     return StreamPacer(emulator, write).start()
 
 
@@ -95,7 +95,8 @@ SENSOR_EMULATORS: dict[str, SensorEmulator] = {
     # a signed value in 0.0001 mm around the head's reference distance
     "panasonic-hlg1": SensorEmulator(PanasonicHLG1Emulator, 115200),
     # RS-422 at the factory rate of 921.6 kBd; streams its values while OUTPUT RS422 (power-up)
-    "me-ild1420": SensorEmulator(partial(ILD1420Emulator, measuring_range_mm=ILD1420_RANGE_MM), 921600,
+    "me-ild1420": SensorEmulator(partial(ILD1420Emulator, measuring_range_mm=ILD1420_RANGE_MM, measrate_khz=1.0),
+                                 921600,
                                  reading=ild1420_distance_mm, sensor_sign="gap", stream=_ild1420_stream),
 }
 
@@ -200,6 +201,17 @@ def _block_for(length_mm: float, geometry: BlockGeometry) -> BlockSetup:
 
 
 
+SAMPLE_LOG_LIMIT = 4096
+
+
+def _bound_sample_log(world: World) -> None:
+    """Keep the world's record of sensor samples bounded (a streaming head samples at kHz rates for
+    as long as ``sim serve`` runs): past the limit, only the newest sample of each station stays."""
+    log = world.sample_log
+    if len(log) > SAMPLE_LOG_LIMIT:
+        log[:] = list(dict(log).items())
+
+
 def start_simulated_rig(
     *,
     seed: int = 0,
@@ -249,6 +261,7 @@ def start_simulated_rig(
 
     def sensor_value(_output: int = 1) -> float | None:
         d = world.sensor_distance_mm()
+        _bound_sample_log(world)
         # surface height at the sensor (height sign: the surface closer -> larger), as the family reports it
         return None if d is None else kind.reading(flip * (block.standoff_mm - d))
 

@@ -30,6 +30,7 @@ import time
 from collections.abc import Callable
 
 from .faults import FaultPlan
+from .sensor_faults import apply_sensor_fault, flip_bit7
 
 CR = b"\r"
 CRLF = b"\r\n"
@@ -103,24 +104,14 @@ class ILD1420Emulator:
         return bytes(out)
 
     def _apply_fault(self, line: bytes, reply: bytes) -> bytes:
-        fault = self.faults.next_request("sensor")
-        if fault is None:
-            return reply
-        if fault.kind == "garbage":
-            return b"#?\x13\x7f!" + CRLF + PROMPT
-        if fault.kind == "drop":
-            return b""
-        if fault.kind == "delay":
-            time.sleep(float(fault.arg or 1.0))
-            return reply
-        if fault.kind == "error":
-            code = int(fault.arg or 104)
+        def error_reply(arg: str | None) -> bytes:
+            code = int(arg or 104)
             text = {104: "Timeout", 202: "Access denied"}.get(code, "Error")
             return (line + CRLF if self.echo else b"") + f"E{code:03d} {text}".encode() + CRLF + PROMPT
-        if fault.kind == "corrupt":
-            i = len(reply) // 2
-            return reply[:i] + bytes([reply[i] ^ 0x80]) + reply[i + 1 :]
-        return reply
+
+        # the noise is 7-bit: bytes with bit 7 set would be taken for value frames
+        return apply_sensor_fault(self.faults, reply, terminator=CRLF + PROMPT, error_reply=error_reply,
+                                  corrupt=flip_bit7, garbage=b"#?\x13\x7f!")
 
     def handle_line(self, line: bytes) -> bytes:
         """The complete reply (echo, lines, prompt) to one command line without its CR."""
