@@ -118,6 +118,8 @@ class SimulatedRig:
     faults: FaultPlan | None = None
     sensor_sign: SensorSign = "height"  # the sign the simulated sensor's values really have
     _stream: Stream | None = field(default=None, repr=False)
+    # held while the world changes: a streaming head sends no burst sampled partly before the change
+    _sampling: contextlib.AbstractContextManager[Any] = field(default_factory=contextlib.nullcontext, repr=False)
 
     def geometry(self) -> BlockGeometry:
         """The set-up geometry a technician would measure on this rig (nominal values, the sensor's sign)."""
@@ -125,7 +127,8 @@ class SimulatedRig:
 
     def place_block(self, station: int, **_: Any) -> None:
         """What the simulated technician does when asked to move the block (any pass)."""
-        self.world.place_block(station)
+        with self._sampling:
+            self.world.place_block(station)
 
     def sensor_path(self) -> str:
         """The pty the sensor emulator currently serves (changes after a ``close`` fault)."""
@@ -145,7 +148,8 @@ class SimulatedRig:
             self.place_block(n)
             return f"block at station {n} (x = {self.world.nominal_x_mm(n):.3f} mm)"
         if words[0] == "beam" and len(words) == 2 and words[1] in ("on", "off"):
-            self.world.beam_blocked = words[1] == "off"
+            with self._sampling:
+                self.world.beam_blocked = words[1] == "off"
             return f"beam {words[1]}"
         if words[0] == "help" and len(words) == 1:
             return "commands: station N | beam off | beam on | help"
@@ -204,7 +208,7 @@ def _block_for(length_mm: float, geometry: BlockGeometry) -> BlockSetup:
 SAMPLE_LOG_LIMIT = 4096
 
 
-def _bound_sample_log(world: World) -> None:
+def bound_sample_log(world: World) -> None:
     """Keep the world's record of sensor samples bounded (a streaming head samples at kHz rates for
     as long as ``sim serve`` runs): past the limit, only the newest sample of each station stays."""
     log = world.sample_log
@@ -261,7 +265,7 @@ def start_simulated_rig(
 
     def sensor_value(_output: int = 1) -> float | None:
         d = world.sensor_distance_mm()
-        _bound_sample_log(world)
+        bound_sample_log(world)
         # surface height at the sensor (height sign: the surface closer -> larger), as the family reports it
         return None if d is None else kind.reading(flip * (block.standoff_mm - d))
 
@@ -274,6 +278,7 @@ def start_simulated_rig(
                 pty.write_unsolicited(data, drop_when_full=True)
 
         stream = kind.stream(emulator, write)
+    sampling = getattr(emulator, "lock", None) if stream is not None else None
     try:
         emulator = InterferometerEmulator(world, measure_time_s=measure_time_s, faults=plan)
         if controller == "rtu-over-tcp":
@@ -290,7 +295,8 @@ def start_simulated_rig(
         raise
     controller_url = f"modbus-rtu:socket://127.0.0.1:{modbus.port}" if controller == "rtu-over-tcp" else modbus.url
     sensor_url = str(sensor_link) if sensor_link is not None else pty.path
-    return SimulatedRig(world, sensor, sensor_url, controller_url, pty, modbus, baud, plan, sensor_sign, stream)
+    return SimulatedRig(world, sensor, sensor_url, controller_url, pty, modbus, baud, plan, sensor_sign, stream,
+                        sampling or contextlib.nullcontext())
 
 
 @dataclass

@@ -116,6 +116,7 @@ class PtyEndpoint(_Endpoint):
                  link: str | Path | None = None) -> None:
         super().__init__(emulator, baudrate, bits_per_char, faults, device)
         self.link = Path(link) if link is not None else None
+        self._fd_lock = threading.Lock()  # unsolicited writers never see a half-replaced pty pair
         self._open_pair()
         self.start()
 
@@ -150,8 +151,9 @@ class PtyEndpoint(_Endpoint):
                 continue
             if not self._answer(data, t_in, self._send):
                 # Unplugged: closing the master hangs the driver's side up; then "re-enumerate".
-                self._close_pair()
-                self._open_pair()
+                with self._fd_lock:
+                    self._close_pair()
+                    self._open_pair()
                 self.link_drops += 1
 
     def _send(self, data: bytes) -> None:
@@ -165,13 +167,19 @@ class PtyEndpoint(_Endpoint):
         stream for a while) the bytes are lost, as on a serial line without a
         reader, instead of blocking the caller until a driver reads.
         """
-        if drop_when_full and not select.select([], [self._master], [], 0)[1]:
-            return
-        os.write(self._master, data)
+        with self._fd_lock:
+            if drop_when_full and not select.select([], [self._master], [], 0)[1]:
+                return
+            os.write(self._master, data)
 
     def stop(self) -> None:
         super().stop()
-        self._close_pair()
+        locked = self._fd_lock.acquire(timeout=2)  # a writer blocked on a full pty must not hang stop()
+        try:
+            self._close_pair()
+        finally:
+            if locked:
+                self._fd_lock.release()
         if self.link is not None:
             with contextlib.suppress(OSError):
                 self.link.unlink()

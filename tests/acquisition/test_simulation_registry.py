@@ -4,10 +4,20 @@ each family's values carry the sign the simulated rig reports."""
 
 from __future__ import annotations
 
+import threading
+from types import SimpleNamespace
+
+import numpy as np
 import pytest
 
 from acquisition.rig import SENSOR_DRIVERS, open_sensor
-from acquisition.simulation import SENSOR_EMULATORS, default_block, start_simulated_rig
+from acquisition.simulation import (
+    SAMPLE_LOG_LIMIT,
+    SENSOR_EMULATORS,
+    bound_sample_log,
+    default_block,
+    start_simulated_rig,
+)
 
 # What each family reports for a surface height h (mm, closer -> larger), from its protocol
 # document: the LK-G and HL-G1 a signed value around the head's reference distance, the ILD1420
@@ -80,3 +90,34 @@ def test_a_set_up_with_the_other_sign_is_honoured(protocol: str) -> None:
     assert abs(heights[1] - heights[0]) > 1e-3  # the surface moved by more than 1 um between the stations
     # within the coarsest family's resolution (ILD1420-10: 10 mm x 1.02 / 65520 = 0.16 um a count)
     assert readings == pytest.approx([value(-h) for h in heights], abs=2e-4)
+
+
+def pacer_threads() -> int:
+    return sum(t.name == "ILD1420StreamPacer" for t in threading.enumerate())
+
+
+def test_streaming_head_streams_from_start_until_close() -> None:
+    before = pacer_threads()
+    rig = start_simulated_rig(seed=1, noise=False, sensor="me-ild1420")
+    try:
+        assert pacer_threads() == before + 1
+        dev = open_sensor("me-ild1420", rig.sensor_url, baudrate=None)
+        try:
+            assert dev.read_once().ok  # no command sent: the values flow from power-up
+        finally:
+            dev.close()
+    finally:
+        rig.close()
+    assert pacer_threads() == before
+
+
+def test_sample_log_keeps_the_newest_sample_of_each_station() -> None:
+    world = SimpleNamespace(sample_log=[(k % 3, np.array([float(k)])) for k in range(SAMPLE_LOG_LIMIT + 1)])
+    bound_sample_log(world)  # type: ignore[arg-type]
+    n = SAMPLE_LOG_LIMIT + 1
+    newest = {st: max(k for k in range(n) if k % 3 == st) for st in range(3)}
+    assert sorted((st, float(hit[0])) for st, hit in world.sample_log) == sorted(
+        (st, float(k)) for st, k in newest.items())
+    short = SimpleNamespace(sample_log=[(0, np.zeros(3))] * 10)
+    bound_sample_log(short)  # type: ignore[arg-type]
+    assert len(short.sample_log) == 10  # below the limit nothing is dropped
