@@ -26,7 +26,13 @@ from .positioning_setup import PositioningSetup, positioning_setup_from_dict
 from .rig import open_controller_rig, open_rig
 from .runstore import RunStore
 from .setup import DeviceSetup, StraightnessSetup, straightness_setup_from_run
-from .simulation import SimulatedMachine, SimulatedRig, start_simulated_machine, start_simulated_rig
+from .simulation import (
+    SimulatedMachine,
+    SimulatedRig,
+    sensor_emulator,
+    start_simulated_machine,
+    start_simulated_rig,
+)
 
 
 @dataclass(frozen=True)
@@ -115,6 +121,10 @@ def run_straightness(
         devices = DeviceSetup(sim.sensor_protocol, sim.sensor_url, sim.sensor_baudrate, sim.controller_url,
                               setup.devices.word_order)
         print(f"simulated sensor     : {sim.sensor_protocol} on {sim.sensor_url}", file=stream)
+        own_sign = sensor_emulator(sim.sensor_protocol).sensor_sign
+        if sim.sensor_sign != own_sign:
+            print(f"note: a {sim.sensor_protocol} gives {own_sign}-type values; simulated with sensor_sign "
+                  f"{sim.sensor_sign!r} as the set-up says", file=stream)
         print(f"simulated controller : {sim.controller_url}", file=stream)
     else:
         devices = setup.devices
