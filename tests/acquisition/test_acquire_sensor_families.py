@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import io
 import json
+import re
 import tomllib
 from pathlib import Path
 
@@ -29,8 +30,10 @@ def setup_text(protocol: str, baud: int | None, sign: str) -> str:
     text = text.replace("samples_per_reading = 5", "samples_per_reading = 1")
     text = text.replace('protocol = "keyence-lkg"', f'protocol = "{protocol}"')
     text = text.replace('sensor_sign = "height"', f'sensor_sign = "{sign}"')
-    assert "baud = 115200\n" in text and f'protocol = "{protocol}"' in text and f'"{sign}"' in text
-    return text.replace("baud = 115200\n", f"baud = {baud}\n" if baud else "")
+    assert f'protocol = "{protocol}"' in text and f'"{sign}"' in text
+    text, n = re.subn(r"(?m)^baud = 115200.*\n", f"baud = {baud}\n" if baud else "", text)
+    assert n == 1
+    return text
 
 
 @pytest.mark.parametrize(
