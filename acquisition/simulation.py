@@ -61,9 +61,10 @@ def ild1420_distance_mm(height_mm: float) -> float:
     return ILD1420_RANGE_MM / 2 - height_mm
 
 
-def _ild1420_stream(emulator: ILD1420Emulator, write: Callable[[bytes], None]) -> Stream:
+def _ild1420_stream(emulator: ILD1420Emulator, write: Callable[[bytes], None], ready: Callable[[], bool]
+                    ) -> Stream:
     # at the emulator's measuring rate (1 kHz here; a MEASRATE command changes it)
-    return StreamPacer(emulator, write).start()
+    return StreamPacer(emulator, write, ready=ready).start()
 
 
 @dataclass(frozen=True)
@@ -78,15 +79,16 @@ class SensorEmulator:
     height sign: closer -> larger, 0 at the set-up's sensor point) into the
     value the emulator reports; ``sensor_sign`` is the sign that value has
     (``height`` or ``gap``, as in :class:`~processing.geometry.BlockGeometry`).
-    ``stream(emulator, write)``: for a streaming sensor, starts pushing its
-    values through ``write`` and returns something to ``stop()``.
+    ``stream(emulator, write, ready)``: for a streaming sensor, starts pushing
+    its values through ``write`` while ``ready()`` (the line takes bytes) and
+    returns something to ``stop()``.
     """
 
     factory: Callable[..., ByteEmulator]
     baudrate: int
     reading: Callable[[float], float] = _same
     sensor_sign: SensorSign = "height"
-    stream: Callable[[Any, Callable[[bytes], None]], Stream] | None = None
+    stream: Callable[[Any, Callable[[bytes], None], Callable[[], bool]], Stream] | None = None
 
 
 # Protocol name (as in acquisition.rig.SENSOR_DRIVERS) -> emulator; one entry per sensor family.
@@ -277,7 +279,7 @@ def start_simulated_rig(
             with contextlib.suppress(OSError):  # the pty is being replaced (close fault) or stopped
                 pty.write_unsolicited(data, drop_when_full=True)
 
-        stream = kind.stream(emulator, write)
+        stream = kind.stream(emulator, write, pty.writable)
     sampling = getattr(emulator, "lock", None) if stream is not None else None
     try:
         emulator = InterferometerEmulator(world, measure_time_s=measure_time_s, faults=plan)

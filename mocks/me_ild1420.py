@@ -263,13 +263,16 @@ class StreamPacer:
     Frames go out in bursts every ``batch_s`` (like a USB-serial adapter
     delivers them); the average rate is exact.  The emulator lock is held
     while writing, so no frame follows the reply to ``OUTPUT NONE``.  Use
-    with ``PtyEndpoint.write_unsolicited``.
+    with ``PtyEndpoint.write_unsolicited``.  ``ready()`` false (say, the
+    line's buffer is full: nobody reads): the frames of that interval are not
+    made, as if lost on a line without a reader.
     """
 
     def __init__(self, emulator: ILD1420Emulator, write: Callable[[bytes], None], *,
-                 batch_s: float = 0.005) -> None:
+                 batch_s: float = 0.005, ready: Callable[[], bool] | None = None) -> None:
         self.emulator = emulator
         self._write = write
+        self._ready = ready
         self.batch_s = batch_s
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="ILD1420StreamPacer", daemon=True)
@@ -286,7 +289,7 @@ class StreamPacer:
         while not self._stop.wait(self.batch_s):
             now = time.monotonic()
             with emu.lock:
-                if emu.output != "RS422":
+                if emu.output != "RS422" or (self._ready is not None and not self._ready()):
                     owed = 0.0
                 else:
                     owed += (now - last) * emu.measrate_khz * 1000.0

@@ -160,6 +160,14 @@ class PtyEndpoint(_Endpoint):
         with contextlib.suppress(OSError):  # the driver may have closed its side meanwhile
             os.write(self._master, data)
 
+    def writable(self) -> bool:
+        """Whether the pty's buffer takes more bytes now (False once unread bytes filled it)."""
+        with self._fd_lock:
+            try:
+                return bool(select.select([], [self._master], [], 0)[1])
+            except (OSError, ValueError):  # closed by stop()
+                return False
+
     def write_unsolicited(self, data: bytes, *, drop_when_full: bool = False) -> None:
         """Send bytes the device emits on its own (streaming, garbage injection).
 
@@ -167,9 +175,9 @@ class PtyEndpoint(_Endpoint):
         stream for a while) the bytes are lost, as on a serial line without a
         reader, instead of blocking the caller until a driver reads.
         """
+        if drop_when_full and not self.writable():
+            return
         with self._fd_lock:
-            if drop_when_full and not select.select([], [self._master], [], 0)[1]:
-                return
             os.write(self._master, data)
 
     def stop(self) -> None:
