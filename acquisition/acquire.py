@@ -26,7 +26,13 @@ from .positioning_setup import PositioningSetup, positioning_setup_from_dict
 from .rig import open_controller_rig, open_rig
 from .runstore import RunStore
 from .setup import DeviceSetup, StraightnessSetup, straightness_setup_from_run
-from .simulation import SimulatedMachine, SimulatedRig, start_simulated_machine, start_simulated_rig
+from .simulation import (
+    SimulatedMachine,
+    SimulatedRig,
+    sensor_emulator,
+    start_simulated_machine,
+    start_simulated_rig,
+)
 
 
 @dataclass(frozen=True)
@@ -107,12 +113,18 @@ def run_straightness(
         simulate = SimOptions(int(stored["seed"]), bool(stored["noise"]), simulate.faults, simulate.wire_time)
     sim = None
     if simulate is not None:
+        # the family the set-up names, at the set-up's line rate if it gives one, else the family's own
         sim = start_simulated_rig(seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
+                                  sensor=setup.devices.sensor_protocol, baudrate=setup.devices.sensor_baud,
                                   block_length_mm=setup.block_length_mm, geometry=setup.geometry,
                                   wire_time=simulate.wire_time)
-        devices = DeviceSetup(sim.sensor_protocol, sim.sensor_url, 115200, sim.controller_url,
+        devices = DeviceSetup(sim.sensor_protocol, sim.sensor_url, sim.sensor_baudrate, sim.controller_url,
                               setup.devices.word_order)
         print(f"simulated sensor     : {sim.sensor_protocol} on {sim.sensor_url}", file=stream)
+        own_sign = sensor_emulator(sim.sensor_protocol).sensor_sign
+        if sim.sensor_sign != own_sign:
+            print(f"note: a {sim.sensor_protocol} gives {own_sign}-type values; simulated with sensor_sign "
+                  f"{sim.sensor_sign!r} as the set-up says", file=stream)
         print(f"simulated controller : {sim.controller_url}", file=stream)
     else:
         devices = setup.devices

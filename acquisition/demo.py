@@ -20,7 +20,7 @@ from .acquire import SimOptions, run_straightness
 from .engine import RunOutcome
 from .errors import UserError
 from .evaluate import process_run_dir
-from .setup import StraightnessSetup
+from .setup import DeviceSetup, StraightnessSetup
 from .simulation import SimulatedRig, default_block
 
 
@@ -36,14 +36,17 @@ def default_run_dir() -> Path:
     return Path("runs") / datetime.now(UTC).strftime("demo-%Y%m%dT%H%M%SZ")
 
 
-def demo_setup(stations: int = 20, samples: int = 5, notes: str = "") -> StraightnessSetup:
-    """The set-up of the default simulated rig (no warm-up: the simulated rig does not drift)."""
+def demo_setup(stations: int = 20, samples: int = 5, notes: str = "", sensor: str = "keyence-lkg"
+               ) -> StraightnessSetup:
+    """The set-up of the default simulated rig with a ``sensor`` head (protocol name; its own sign
+    and line rate); no warm-up: the simulated rig does not drift."""
     if stations < 2:
         raise UserError(f"--stations must be at least 2, got {stations}")
-    length_mm, geometry = default_block()
+    length_mm, geometry = default_block(sensor)
     return StraightnessSetup(block_length_mm=length_mm, stations=stations, geometry=geometry,
                              samples_per_reading=samples, machine="simulated machine", axis="X",
-                             operator="simulated technician", notes=notes)
+                             operator="simulated technician", notes=notes,
+                             devices=DeviceSetup(sensor_protocol=sensor))
 
 
 def run_demo(
@@ -54,11 +57,12 @@ def run_demo(
     noise: bool = True,
     samples: int = 5,
     faults: str | None = None,
+    sensor: str = "keyence-lkg",
     stream: TextIO = sys.stdout,
 ) -> DemoResult:
-    """Run the whole demo; print progress to ``stream``."""
+    """Run the whole demo with a simulated ``sensor`` (protocol name); print progress to ``stream``."""
     run_dir = Path(out) if out is not None else default_run_dir()
-    setup = demo_setup(stations, samples, f"guideway demo, seed {seed}, noise {'on' if noise else 'off'}")
+    setup = demo_setup(stations, samples, f"guideway demo, seed {seed}, noise {'on' if noise else 'off'}", sensor)
     res = run_straightness(setup, run_dir, simulate=SimOptions(seed, noise, faults), auto=True, stream=stream)
     outcome = res.outcome
     if outcome.exit_status != "success":

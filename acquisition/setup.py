@@ -28,7 +28,7 @@ class DeviceSetup:
 
     sensor_protocol: str = "keyence-lkg"
     sensor_url: str = ""
-    sensor_baud: int = 115200
+    sensor_baud: int | None = None  # None: the driver's default rate for the protocol
     controller_url: str = ""
     word_order: str = "ABCD"
 
@@ -264,7 +264,7 @@ def straightness_setup_from_dict(data: dict[str, Any], source: str = "setup") ->
     devices = DeviceSetup(
         sensor_protocol=sen.get("protocol", str, "keyence-lkg"),
         sensor_url=sen.get("port", str, ""),
-        sensor_baud=sen.get("baud", int, 115200),
+        sensor_baud=sen.get("baud", int, None),
         controller_url=ctl.get("url", str, ""),
         word_order=ctl.get("word_order", str, "ABCD"),
     )

@@ -10,10 +10,12 @@ real drivers, exactly as on a real rig.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from pymodbus import FramerType
 
@@ -21,17 +23,48 @@ from mocks.faults import FaultPlan, FaultSpecError
 from mocks.interferometer import InterferometerEmulator, ModbusServerThread, start_controller
 from mocks.keyence_lkg import KeyenceLKGEmulator
 from mocks.machine_axis import AxisErrors, InPositionRegisters, MachineAxis, MachineStop
+from mocks.me_ild1420 import ILD1420Emulator, StreamPacer
+from mocks.panasonic_hlg1 import PanasonicHLG1Emulator
 from mocks.serial_endpoints import ByteEmulator, PtyEndpoint
 from mocks.world import BlockSetup, Noise, World
-from processing.geometry import BlockGeometry
+from processing.geometry import BlockGeometry, SensorSign
 
 from .errors import UserError
 from .positioning_setup import PositioningSetup, SimulatedAxisSetup
 
 SensorSource = Callable[..., float | None]
-"""What a sensor emulator reads: ``source(output=1)`` gives the displacement in mm
-(height sign: closer target -> larger) for an output/head number, ``None`` when
-the beam sees no target.  Emulators of single-output heads may call ``source()``."""
+"""What a sensor emulator reads: ``source(output=1)`` gives the value in mm in the
+emulator's own convention (see :attr:`SensorEmulator.reading`) for an output/head
+number, ``None`` when the beam sees no target.  Emulators of single-output heads
+may call ``source()``."""
+
+
+class Stream(Protocol):
+    """A running value stream of a streaming sensor's emulator."""
+
+    def stop(self) -> None: ...
+
+
+def _same(height_mm: float) -> float:
+    return height_mm
+
+
+ILD1420_RANGE_MM = 10.0
+"""Measuring range MR of the simulated ILD1420 (an ILD1420-10, the emulator's default head)."""
+
+
+def ild1420_distance_mm(height_mm: float) -> float:
+    """ILD1420 value for a surface height: distance from the start of the range, mid-range at height 0.
+
+    The 1420 reports 0...MR with larger = surface further away (a gap-type reading).
+    """
+    return ILD1420_RANGE_MM / 2 - height_mm
+
+
+def _ild1420_stream(emulator: ILD1420Emulator, write: Callable[[bytes], None], ready: Callable[[], bool]
+                    ) -> Stream:
+    # at the emulator's measuring rate (1 kHz here; a MEASRATE command changes it)
+    return StreamPacer(emulator, write, ready=ready).start()
 
 
 @dataclass(frozen=True)
@@ -42,15 +75,31 @@ class SensorEmulator:
     (``receive(bytes) -> bytes``); an emulator class with the constructor
     ``(source, *, faults=None)`` is a factory as it stands.  ``baudrate`` is the
     line rate the endpoint models and the driver is opened with.
+    ``reading(height_mm)`` turns the world's surface height at the sensor (mm,
+    height sign: closer -> larger, 0 at the set-up's sensor point) into the
+    value the emulator reports; ``sensor_sign`` is the sign that value has
+    (``height`` or ``gap``, as in :class:`~processing.geometry.BlockGeometry`).
+    ``stream(emulator, write, ready)``: for a streaming sensor, starts pushing
+    its values through ``write`` while ``ready()`` (the line takes bytes) and
+    returns something to ``stop()``.
     """
 
     factory: Callable[..., ByteEmulator]
     baudrate: int
+    reading: Callable[[float], float] = _same
+    sensor_sign: SensorSign = "height"
+    stream: Callable[[Any, Callable[[bytes], None], Callable[[], bool]], Stream] | None = None
 
 
-# Protocol name (as in acquisition.rig.SENSOR_DRIVERS) -> emulator; one line per sensor family.
+# Protocol name (as in acquisition.rig.SENSOR_DRIVERS) -> emulator; one entry per sensor family.
 SENSOR_EMULATORS: dict[str, SensorEmulator] = {
     "keyence-lkg": SensorEmulator(KeyenceLKGEmulator, 115200),
+    # a signed value in 0.0001 mm around the head's reference distance
+    "panasonic-hlg1": SensorEmulator(PanasonicHLG1Emulator, 115200),
+    # RS-422 at the factory rate of 921.6 kBd; streams its values while OUTPUT RS422 (power-up)
+    "me-ild1420": SensorEmulator(partial(ILD1420Emulator, measuring_range_mm=ILD1420_RANGE_MM, measrate_khz=1.0),
+                                 921600,
+                                 reading=ild1420_distance_mm, sensor_sign="gap", stream=_ild1420_stream),
 }
 
 
@@ -69,19 +118,19 @@ class SimulatedRig:
     _modbus: ModbusServerThread
     sensor_baudrate: int = 115200
     faults: FaultPlan | None = None
+    sensor_sign: SensorSign = "height"  # the sign the simulated sensor's values really have
+    _stream: Stream | None = field(default=None, repr=False)
+    # held while the world changes: a streaming head sends no burst sampled partly before the change
+    _sampling: contextlib.AbstractContextManager[Any] = field(default_factory=contextlib.nullcontext, repr=False)
 
     def geometry(self) -> BlockGeometry:
-        """The set-up geometry a technician would measure on this rig (nominal values)."""
-        b = self.world.block
-        e = b.sensor_head_mm
-        q = tuple(e[i] + b.standoff_mm * b.beam[i] for i in range(3))
-        return BlockGeometry(
-            mirror_mm=b.mirror_mm, sensor_mm=q, sensor_beam=b.beam, sensor_sign="height"  # type: ignore[arg-type]
-        )
+        """The set-up geometry a technician would measure on this rig (nominal values, the sensor's sign)."""
+        return _geometry_of(self.world.block, self.sensor_sign)
 
     def place_block(self, station: int, **_: Any) -> None:
         """What the simulated technician does when asked to move the block (any pass)."""
-        self.world.place_block(station)
+        with self._sampling:
+            self.world.place_block(station)
 
     def sensor_path(self) -> str:
         """The pty the sensor emulator currently serves (changes after a ``close`` fault)."""
@@ -101,13 +150,16 @@ class SimulatedRig:
             self.place_block(n)
             return f"block at station {n} (x = {self.world.nominal_x_mm(n):.3f} mm)"
         if words[0] == "beam" and len(words) == 2 and words[1] in ("on", "off"):
-            self.world.beam_blocked = words[1] == "off"
+            with self._sampling:
+                self.world.beam_blocked = words[1] == "off"
             return f"beam {words[1]}"
         if words[0] == "help" and len(words) == 1:
             return "commands: station N | beam off | beam on | help"
         return f"unknown command {line.strip()!r}; commands: station N | beam off | beam on | help"
 
     def close(self) -> None:
+        if self._stream is not None:
+            self._stream.stop()
         self._modbus.stop()
         self._pty.stop()
 
@@ -129,12 +181,21 @@ def parse_faults(spec: str | None) -> FaultPlan:
     except FaultSpecError as exc:
         raise UserError(str(exc)) from exc
 
-def default_block() -> tuple[float, BlockGeometry]:
-    """Block length (mm) and set-up geometry of the default simulated rig."""
-    b = BlockSetup()
+
+def _geometry_of(b: BlockSetup, sign: SensorSign) -> BlockGeometry:
+    """Nominal set-up geometry of a simulated block: mirror at P, sensor point Q at the stand-off."""
     q = tuple(b.sensor_head_mm[i] + b.standoff_mm * b.beam[i] for i in range(3))
-    return b.length_mm, BlockGeometry(mirror_mm=b.mirror_mm, sensor_mm=q, sensor_beam=b.beam,  # type: ignore[arg-type]
-                                      sensor_sign="height")
+    return BlockGeometry(mirror_mm=b.mirror_mm, sensor_mm=q, sensor_beam=b.beam,  # type: ignore[arg-type]
+                         sensor_sign=sign)
+
+
+def default_block(sensor: str = "keyence-lkg") -> tuple[float, BlockGeometry]:
+    """Block length (mm) and set-up geometry of the default simulated rig with a ``sensor`` head.
+
+    The geometry's ``sensor_sign`` is the one the family's simulated values have.
+    """
+    b = BlockSetup()
+    return b.length_mm, _geometry_of(b, sensor_emulator(sensor).sensor_sign)
 
 
 def _block_for(length_mm: float, geometry: BlockGeometry) -> BlockSetup:
@@ -144,6 +205,17 @@ def _block_for(length_mm: float, geometry: BlockGeometry) -> BlockSetup:
     return BlockSetup(length_mm=length_mm, mirror_mm=geometry.mirror_mm, sensor_head_mm=head,  # type: ignore[arg-type]
                       beam=geometry.sensor_beam, standoff_mm=standoff)
 
+
+
+SAMPLE_LOG_LIMIT = 4096
+
+
+def bound_sample_log(world: World) -> None:
+    """Keep the world's record of sensor samples bounded (a streaming head samples at kHz rates for
+    as long as ``sim serve`` runs): past the limit, only the newest sample of each station stays."""
+    log = world.sample_log
+    if len(log) > SAMPLE_LOG_LIMIT:
+        log[:] = list(dict(log).items())
 
 
 def start_simulated_rig(
@@ -181,23 +253,34 @@ def start_simulated_rig(
     kind = sensor_emulator(sensor)
     plan = parse_faults(faults)
     baud = baudrate or kind.baudrate
-    sign = 1.0
+    sensor_sign = kind.sensor_sign
     block = None
     if block_length_mm is not None or geometry is not None:
-        d_len, d_geo = default_block()
+        d_len, d_geo = default_block(sensor)
         geometry = geometry or d_geo
         block = _block_for(block_length_mm or d_len, geometry)
-        sign = 1.0 if geometry.sensor_sign == "height" else -1.0
+        # the head is set up (mounted, or its output inverted) to read with the set-up's sign
+        sensor_sign = geometry.sensor_sign
+    flip = 1.0 if sensor_sign == kind.sensor_sign else -1.0
     world = World(seed=seed, noise=Noise() if noise else Noise.off(), block=block)
     block = world.block
 
     def sensor_value(_output: int = 1) -> float | None:
         d = world.sensor_distance_mm()
-        # height sign: the surface closer -> larger; gap sign: the opposite
-        return None if d is None else sign * (block.standoff_mm - d)
+        bound_sample_log(world)
+        # surface height at the sensor (height sign: the surface closer -> larger), as the family reports it
+        return None if d is None else kind.reading(flip * (block.standoff_mm - d))
 
-    pty = PtyEndpoint(kind.factory(sensor_value, faults=plan), baudrate=baud if wire_time else 0, faults=plan,
-                      link=sensor_link)
+    emulator = kind.factory(sensor_value, faults=plan)
+    pty = PtyEndpoint(emulator, baudrate=baud if wire_time else 0, faults=plan, link=sensor_link)
+    stream = None
+    if kind.stream is not None:
+        def write(data: bytes) -> None:
+            with contextlib.suppress(OSError):  # the pty is being replaced (close fault) or stopped
+                pty.write_unsolicited(data, drop_when_full=True)
+
+        stream = kind.stream(emulator, write, pty.writable)
+    sampling = getattr(emulator, "lock", None) if stream is not None else None
     try:
         emulator = InterferometerEmulator(world, measure_time_s=measure_time_s, faults=plan)
         if controller == "rtu-over-tcp":
@@ -206,13 +289,16 @@ def start_simulated_rig(
         else:
             modbus = start_controller(emulator, transport=controller, port=modbus_port)
     except BaseException as exc:
+        if stream is not None:
+            stream.stop()
         pty.stop()
         if isinstance(exc, RuntimeError) and modbus_port:
             raise UserError(f"cannot serve Modbus on port {modbus_port} ({exc}); choose another --modbus-port") from exc
         raise
     controller_url = f"modbus-rtu:socket://127.0.0.1:{modbus.port}" if controller == "rtu-over-tcp" else modbus.url
     sensor_url = str(sensor_link) if sensor_link is not None else pty.path
-    return SimulatedRig(world, sensor, sensor_url, controller_url, pty, modbus, baud, plan)
+    return SimulatedRig(world, sensor, sensor_url, controller_url, pty, modbus, baud, plan, sensor_sign, stream,
+                        sampling or contextlib.nullcontext())
 
 
 @dataclass

@@ -30,6 +30,7 @@ import time
 from collections.abc import Callable
 
 from .faults import FaultPlan
+from .sensor_faults import apply_sensor_fault, flip_bit7
 
 CR = b"\r"
 CRLF = b"\r\n"
@@ -103,24 +104,14 @@ class ILD1420Emulator:
         return bytes(out)
 
     def _apply_fault(self, line: bytes, reply: bytes) -> bytes:
-        fault = self.faults.next_request("sensor")
-        if fault is None:
-            return reply
-        if fault.kind == "garbage":
-            return b"#?\x13\x7f!" + CRLF + PROMPT
-        if fault.kind == "drop":
-            return b""
-        if fault.kind == "delay":
-            time.sleep(float(fault.arg or 1.0))
-            return reply
-        if fault.kind == "error":
-            code = int(fault.arg or 104)
+        def error_reply(arg: str | None) -> bytes:
+            code = int(arg or 104)
             text = {104: "Timeout", 202: "Access denied"}.get(code, "Error")
             return (line + CRLF if self.echo else b"") + f"E{code:03d} {text}".encode() + CRLF + PROMPT
-        if fault.kind == "corrupt":
-            i = len(reply) // 2
-            return reply[:i] + bytes([reply[i] ^ 0x80]) + reply[i + 1 :]
-        return reply
+
+        # the noise is 7-bit: bytes with bit 7 set would be taken for value frames
+        return apply_sensor_fault(self.faults, reply, terminator=CRLF + PROMPT, error_reply=error_reply,
+                                  corrupt=flip_bit7, garbage=b"#?\x13\x7f!")
 
     def handle_line(self, line: bytes) -> bytes:
         """The complete reply (echo, lines, prompt) to one command line without its CR."""
@@ -272,13 +263,16 @@ class StreamPacer:
     Frames go out in bursts every ``batch_s`` (like a USB-serial adapter
     delivers them); the average rate is exact.  The emulator lock is held
     while writing, so no frame follows the reply to ``OUTPUT NONE``.  Use
-    with ``PtyEndpoint.write_unsolicited``.
+    with ``PtyEndpoint.write_unsolicited``.  ``ready()`` false (say, the
+    line's buffer is full: nobody reads): the frames of that interval are not
+    made, as if lost on a line without a reader.
     """
 
     def __init__(self, emulator: ILD1420Emulator, write: Callable[[bytes], None], *,
-                 batch_s: float = 0.005) -> None:
+                 batch_s: float = 0.005, ready: Callable[[], bool] | None = None) -> None:
         self.emulator = emulator
         self._write = write
+        self._ready = ready
         self.batch_s = batch_s
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="ILD1420StreamPacer", daemon=True)
@@ -295,7 +289,7 @@ class StreamPacer:
         while not self._stop.wait(self.batch_s):
             now = time.monotonic()
             with emu.lock:
-                if emu.output != "RS422":
+                if emu.output != "RS422" or (self._ready is not None and not self._ready()):
                     owed = 0.0
                 else:
                     owed += (now - last) * emu.measrate_khz * 1000.0

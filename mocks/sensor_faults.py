@@ -30,18 +30,21 @@ def apply_sensor_fault(
     terminator: bytes,
     error_reply: Callable[[str | None], bytes],
     corrupt: Callable[[bytes], bytes],
+    garbage: bytes = GARBAGE,
 ) -> bytes:
     """Count one request to ``sensor`` and return the bytes to send for ``reply``.
 
     ``error_reply(arg)`` builds the device's error frame for the fault's ARG
     (``None``: the protocol's default code); ``corrupt(reply)`` damages a frame.
     ``delay`` blocks the caller (the endpoint's serving thread) for ARG seconds.
+    ``garbage``: the noise sent before ``terminator`` (a protocol that tells binary from
+    text by bit 7 needs noise that still reads as text).
     """
     fault = faults.next_request("sensor")
     if fault is None:
         return reply
     if fault.kind == "garbage":
-        return GARBAGE + terminator
+        return garbage + terminator
     if fault.kind == "drop":
         return b""
     if fault.kind == "delay":

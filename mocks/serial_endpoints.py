@@ -116,6 +116,7 @@ class PtyEndpoint(_Endpoint):
                  link: str | Path | None = None) -> None:
         super().__init__(emulator, baudrate, bits_per_char, faults, device)
         self.link = Path(link) if link is not None else None
+        self._fd_lock = threading.Lock()  # unsolicited writers never see a half-replaced pty pair
         self._open_pair()
         self._wake_r, self._wake_w = os.pipe()  # stop() wakes the serving select at once
         self.start()
@@ -151,17 +152,34 @@ class PtyEndpoint(_Endpoint):
                 continue
             if not self._answer(data, t_in, self._send):
                 # Unplugged: closing the master hangs the driver's side up; then "re-enumerate".
-                self._close_pair()
-                self._open_pair()
+                with self._fd_lock:
+                    self._close_pair()
+                    self._open_pair()
                 self.link_drops += 1
 
     def _send(self, data: bytes) -> None:
         with contextlib.suppress(OSError):  # the driver may have closed its side meanwhile
             os.write(self._master, data)
 
-    def write_unsolicited(self, data: bytes) -> None:
-        """Send bytes the device emits on its own (streaming, garbage injection)."""
-        os.write(self._master, data)
+    def writable(self) -> bool:
+        """Whether the pty's buffer takes more bytes now (False once unread bytes filled it)."""
+        with self._fd_lock:
+            try:
+                return bool(select.select([], [self._master], [], 0)[1])
+            except (OSError, ValueError):  # closed by stop()
+                return False
+
+    def write_unsolicited(self, data: bytes, *, drop_when_full: bool = False) -> None:
+        """Send bytes the device emits on its own (streaming, garbage injection).
+
+        ``drop_when_full``: if the pty's buffer is full (nobody has read the
+        stream for a while) the bytes are lost, as on a serial line without a
+        reader, instead of blocking the caller until a driver reads.
+        """
+        if drop_when_full and not self.writable():
+            return
+        with self._fd_lock:
+            os.write(self._master, data)
 
     def stop(self) -> None:
         self._stop.set()
@@ -169,7 +187,12 @@ class PtyEndpoint(_Endpoint):
             with contextlib.suppress(OSError):
                 os.write(self._wake_w, b"\0")
         super().stop()
-        self._close_pair()
+        locked = self._fd_lock.acquire(timeout=2)  # a writer blocked on a full pty must not hang stop()
+        try:
+            self._close_pair()
+        finally:
+            if locked:
+                self._fd_lock.release()
         for fd in (self._wake_r, self._wake_w):
             if fd >= 0:
                 with contextlib.suppress(OSError):

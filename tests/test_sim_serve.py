@@ -102,6 +102,30 @@ def test_serve_drive_both_devices_then_sigint_exits_0() -> None:
     assert "Traceback" not in err
 
 
+@pytest.mark.parametrize(("sensor", "baudrate"), [("panasonic-hlg1", 115200), ("me-ild1420", 921600)])
+def test_serve_other_sensor_families(sensor: str, baudrate: int) -> None:
+    served = Served("--no-noise", "--sensor", sensor)
+    try:
+        sensor_spec, baud = served.endpoints()["sensor"].split()[:2]
+        protocol, _, url = sensor_spec.partition(":")
+        assert protocol == sensor and baud == f"baud={baudrate}"
+        dev = open_sensor(protocol, url, baudrate=baudrate)
+        try:
+            assert dev.read_once().ok  # the ILD1420 streams on its own; the HL-G1 answers a poll
+            assert dev.read_averaged(3).count == 3
+            assert served.send("beam off") == "beam off"
+            assert not dev.read_once().ok  # HL-G1: ALARM flag; ILD1420: an error value in the stream
+            assert served.send("beam on") == "beam on"
+            assert dev.read_once().ok
+        finally:
+            dev.close()
+        code, err = served.interrupt()
+    finally:
+        served.kill()
+    assert code == 0, err
+    assert "Traceback" not in err
+
+
 @pytest.mark.parametrize(("args", "prefix"), [(("--modbus-rtu",), "modbus-rtu:socket://127.0.0.1:"),
                                               (("--modbus", "rtu"), "modbus-rtu:/dev/pts/")])
 def test_serve_modbus_rtu_framing(args: tuple[str, ...], prefix: str) -> None:

@@ -314,3 +314,21 @@ def test_serial_link_read_some_returns_what_arrived() -> None:
         assert link.read_some(10, 0.01) == b""  # silence is not an error
     finally:
         link.close()
+
+
+def test_pacer_makes_no_frames_while_the_line_is_not_ready() -> None:
+    emu = ILD1420Emulator(Source(4.0), measrate_khz=1.0)
+    written: list[bytes] = []
+    ready = [False]
+    asked = [0]
+
+    def line_ready() -> bool:
+        asked[0] += 1
+        return ready[0]
+
+    with StreamPacer(emu, written.append, ready=line_ready):
+        wait_for(lambda: asked[0] >= 3, timeout_s=5, what="three pacer intervals")
+        assert emu.frames_sent == 0 and not written
+        ready[0] = True
+        wait_for(lambda: emu.frames_sent >= 5, timeout_s=5, what="frames once the line is ready")
+    assert sum(len(b) for b in written) == 3 * emu.frames_sent  # every frame made was written, whole

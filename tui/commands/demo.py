@@ -10,7 +10,7 @@ def run(args: argparse.Namespace) -> int:
     from acquisition.demo import run_demo
 
     run_demo(args.out, stations=args.stations, seed=args.seed, noise=not args.no_noise,
-             samples=args.samples, faults=args.faults)
+             samples=args.samples, faults=args.faults, sensor=args.sensor)
     return 0
 
 
@@ -20,6 +20,8 @@ def register(sub) -> None:  # noqa: ANN001
     d.add_argument("--stations", type=int, default=20, help="stations including the datum (default 20)")
     d.add_argument("--seed", type=int, default=0, help="seed of the simulated world (default 0)")
     d.add_argument("--samples", type=int, default=5, help="sensor samples averaged per station (default 5)")
+    d.add_argument("--sensor", default="keyence-lkg", metavar="PROTOCOL",
+                   help="simulated sensor family: keyence-lkg (default), panasonic-hlg1 or me-ild1420")
     d.add_argument("--no-noise", action="store_true", help="switch the simulated instrument noise off")
     d.add_argument("--faults", default=None, metavar="SPEC",
                    help="inject device faults, e.g. sensor:garbage@12 (DEVICE:KIND@N[xCOUNT][=ARG])")

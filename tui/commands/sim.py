@@ -67,7 +67,8 @@ def register(sub) -> None:  # noqa: ANN001
     ssub = s.add_subparsers(dest="sim_command", required=True, parser_class=type(s))
     p = ssub.add_parser("serve", help="serve a simulated sensor (pty) and controller (Modbus) until Ctrl-C")
     p.add_argument("--sensor", default="keyence-lkg", metavar="PROTOCOL",
-                   help="sensor protocol to emulate (default keyence-lkg; an unknown name lists the available ones)")
+                   help="sensor family to emulate: keyence-lkg (default), panasonic-hlg1 or me-ild1420 "
+                        "(each at its own baud rate)")
     p.add_argument("--modbus-port", type=int, default=0, metavar="N",
                    help="TCP port of the controller on 127.0.0.1 (default: a free port)")
     p.add_argument("--modbus", choices=("tcp", "rtu", "rtu-over-tcp"), default="tcp",
