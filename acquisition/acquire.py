@@ -29,10 +29,21 @@ from .setup import DeviceSetup, StraightnessSetup, straightness_setup_from_run
 from .simulation import (
     SimulatedMachine,
     SimulatedRig,
+    SimulatedTransmitter,
     sensor_emulator,
     start_simulated_machine,
     start_simulated_rig,
+    start_simulated_transmitter,
 )
+
+
+def _simulated_transmitter(url: str, environment: Any, stream: TextIO) -> SimulatedTransmitter | None:
+    """A simulated XY-MD02 when the set-up names a transmitter, reading the simulation's environment."""
+    if not url:
+        return None
+    transmitter = start_simulated_transmitter(environment)
+    print(f"simulated transmitter: XY-MD02 on {transmitter.url} (the set-up names {url})", file=stream)
+    return transmitter
 
 
 @dataclass(frozen=True)
@@ -112,14 +123,16 @@ def run_straightness(
         stored = store.meta["simulation"]  # the same simulated world the run started with
         simulate = SimOptions(int(stored["seed"]), bool(stored["noise"]), simulate.faults, simulate.wire_time)
     sim = None
+    transmitter: SimulatedTransmitter | None = None
     if simulate is not None:
         # the family the set-up names, at the set-up's line rate if it gives one, else the family's own
         sim = start_simulated_rig(seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
                                   sensor=setup.devices.sensor_protocol, baudrate=setup.devices.sensor_baud,
                                   block_length_mm=setup.block_length_mm, geometry=setup.geometry,
                                   wire_time=simulate.wire_time)
+        transmitter = _simulated_transmitter(setup.devices.environment_url, sim.world, stream)
         devices = DeviceSetup(sim.sensor_protocol, sim.sensor_url, sim.sensor_baudrate, sim.controller_url,
-                              setup.devices.word_order)
+                              setup.devices.word_order, transmitter.url if transmitter is not None else "")
         print(f"simulated sensor     : {sim.sensor_protocol} on {sim.sensor_url}", file=stream)
         own_sign = sensor_emulator(sim.sensor_protocol).sensor_sign
         if sim.sensor_sign != own_sign:
@@ -135,7 +148,8 @@ def run_straightness(
                              "or use --simulate")
     try:
         rig = open_rig(devices.sensor_protocol, devices.sensor_url, devices.controller_url,
-                       baudrate=devices.sensor_baud, word_order=devices.word_order)
+                       baudrate=devices.sensor_baud, word_order=devices.word_order,
+                       environment_url=devices.environment_url or None)
         try:
             if rp is None:
                 store.header["instruments"] = rig.instruments()
@@ -153,6 +167,8 @@ def run_straightness(
         finally:
             rig.close()
     finally:
+        if transmitter is not None:
+            transmitter.close()
         if sim is not None:
             sim.close()
     print(f"run {outcome.exit_status}: {store.points_written} points in {out}"
@@ -207,16 +223,20 @@ def run_positioning(
         stored = store.meta["simulation"]
         simulate = SimOptions(int(stored["seed"]), bool(stored["noise"]), simulate.faults)
     sim = None
+    transmitter: SimulatedTransmitter | None = None
     url = setup.devices.controller_url
+    environment_url = setup.devices.environment_url
     if simulate is not None:
         sim = start_simulated_machine(setup, seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
                                       start_at=rp.next_index if rp is not None else 0)
         url = sim.controller_url
         print(f"simulated machine axis {setup.axis_name} ({setup.trigger.mode} trigger) behind {url}", file=stream)
+        transmitter = _simulated_transmitter(environment_url, sim.axis, stream)
+        environment_url = transmitter.url if transmitter is not None else ""
     elif not url:
         raise SetupError("[controller] url is missing in the setup; give the controller's address or use --simulate")
     try:
-        rig = open_controller_rig(url, word_order=setup.devices.word_order)
+        rig = open_controller_rig(url, word_order=setup.devices.word_order, environment_url=environment_url or None)
         try:
             if rp is None:
                 store.header["instruments"] = rig.instruments()
@@ -229,6 +249,8 @@ def run_positioning(
         finally:
             rig.close()
     finally:
+        if transmitter is not None:
+            transmitter.close()
         if sim is not None:
             sim.close()
     print(f"run {outcome.exit_status}: {store.points_written} points in {out}"

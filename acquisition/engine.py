@@ -142,7 +142,7 @@ class RunEngine:
             Instruct: self._ask,
             Prompt: self._ask,
             ZeroInterferometer: lambda _m: self.rig.controller.zero(),
-            TriggerInterferometer: lambda _m: self.rig.controller.trigger_and_read(),
+            TriggerInterferometer: lambda _m: self.rig.trigger_and_read(),
             ReadSensor: self._read_sensor,
             Wait: self._wait,
             Annotate: lambda m: self._emit("annotate", {"uid": self._uid, "key": m.key, "value": m.value}),

@@ -197,7 +197,8 @@ def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> 
     )
     ctl = top.table("controller")
     devices = DeviceSetup(sensor_url="", controller_url=ctl.get("url", str, ""),
-                          word_order=ctl.get("word_order", str, "ABCD"))
+                          word_order=ctl.get("word_order", str, "ABCD"),
+                          environment_url=top.table("transmitter").get("url", str, ""))
     check_devices(devices, source, sensor=False)
     gc = top.table("gcode")
     dialect, program_number = gc.get("dialect", str, "fanuc"), gc.get("program_number", int, 1000)

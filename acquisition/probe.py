@@ -14,13 +14,14 @@ import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 
+from drivers.environment.xymd02 import XYMD02
 from drivers.errors import DeviceError, DriverError
 from drivers.interferometer import InterferometerController
 from drivers.readings import ControllerStatus, DisplacementReading, InterferometerReading
 from drivers.sensor import DisplacementSensor
 
 from .errors import UserError
-from .rig import open_controller, open_sensor
+from .rig import open_controller, open_environment, open_sensor
 
 
 def parse_sensor_spec(spec: str) -> tuple[str, str]:
@@ -69,6 +70,8 @@ class Probe:
     controller: InterferometerController | None
     sensor_name: str = ""
     controller_name: str = ""
+    environment: XYMD02 | None = None
+    environment_name: str = ""
 
     def _fail(self, name: str, exc: DriverError) -> UserError:
         return UserError(f"{name} did not answer properly: {exc}")
@@ -85,6 +88,8 @@ class Probe:
                 lines.append(f"{self.controller_name}: {_identity(self.controller.identify())}")
             except DriverError as exc:
                 raise self._fail(self.controller_name, exc) from exc
+        if self.environment is not None:
+            lines.append(f"{self.environment_name}: model=XY-MD02 (no identity query in its register map)")
         return lines
 
     def reading_lines(self, index: int) -> list[str]:
@@ -110,20 +115,31 @@ class Probe:
                 raise self._fail(self.controller_name, exc) from exc
             lines.append(f"#{index} controller: {body[0]}")
             lines += body[1:]
+        if self.environment is not None:
+            try:
+                env = self.environment.read_once()
+            except DeviceError as exc:
+                lines.append(f"#{index} environment: device error: {exc}")
+            except DriverError as exc:
+                raise self._fail(self.environment_name, exc) from exc
+            else:
+                lines.append(f"#{index} environment: air {env.temp_c:.1f} C  humidity {env.humidity_pct:.1f} %RH")
         return lines
 
     def close(self) -> None:
-        for dev in (self.sensor, self.controller):
+        for dev in (self.sensor, self.controller, self.environment):
             if dev is not None:
                 with contextlib.suppress(Exception):  # closing is best effort
                     dev.close()
 
 
 @contextlib.contextmanager
-def open_probe(sensor: str | None, controller: str | None, *, baudrate: int | None = None) -> Iterator[Probe]:
-    """Open the given devices (``sensor`` as ``PROTOCOL:URL``, ``controller`` as a controller URL)."""
-    if sensor is None and controller is None:
-        raise UserError("nothing to probe; give --sensor PROTOCOL:URL and/or --controller URL")
+def open_probe(sensor: str | None, controller: str | None, *, baudrate: int | None = None,
+               environment: str | None = None) -> Iterator[Probe]:
+    """Open the given devices (``sensor`` as ``PROTOCOL:URL``, ``controller`` and ``environment``
+    (an XY-MD02 transmitter) as Modbus URLs)."""
+    if sensor is None and controller is None and environment is None:
+        raise UserError("nothing to probe; give --sensor PROTOCOL:URL, --controller URL and/or --environment URL")
     probe = Probe(None, None)
     try:
         if sensor is not None:
@@ -133,6 +149,9 @@ def open_probe(sensor: str | None, controller: str | None, *, baudrate: int | No
         if controller is not None:
             probe.controller = open_controller(controller)
             probe.controller_name = f"controller {controller}"
+        if environment is not None:
+            probe.environment = open_environment(environment)
+            probe.environment_name = f"environment {environment}"
         yield probe
     finally:
         probe.close()

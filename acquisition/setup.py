@@ -31,6 +31,8 @@ class DeviceSetup:
     sensor_baud: int | None = None  # None: the driver's default rate for the protocol
     controller_url: str = ""
     word_order: str = "ABCD"
+    # A separate XY-MD02 air temperature / humidity transmitter ("" = the controller's environment unit).
+    environment_url: str = ""
 
 
 @dataclass(frozen=True)
@@ -154,6 +156,9 @@ def check_devices(devices: DeviceSetup, source: str, *, sensor: bool) -> None:
     if devices.controller_url and not devices.controller_url.startswith(CONTROLLER_SCHEMES):
         raise SetupError(f"{source}: [controller] url {devices.controller_url!r} must start with modbus-tcp:// "
                          "or modbus-rtu: (e.g. modbus-tcp://192.168.0.10:502)")
+    if devices.environment_url and not devices.environment_url.startswith(CONTROLLER_SCHEMES):
+        raise SetupError(f"{source}: [transmitter] url {devices.environment_url!r} must start with modbus-rtu: "
+                         "or modbus-tcp:// (e.g. modbus-rtu:/dev/ttyUSB2?baud=9600)")
 
 
 # -- reading TOML ------------------------------------------------------------------------------
@@ -267,6 +272,7 @@ def straightness_setup_from_dict(data: dict[str, Any], source: str = "setup") ->
         sensor_baud=sen.get("baud", int, None),
         controller_url=ctl.get("url", str, ""),
         word_order=ctl.get("word_order", str, "ABCD"),
+        environment_url=top.table("transmitter").get("url", str, ""),
     )
     if devices.word_order not in ("ABCD", "CDAB"):
         raise SetupError(f"{source}: [controller] word_order must be ABCD or CDAB, got {devices.word_order!r}")

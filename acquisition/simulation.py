@@ -27,6 +27,7 @@ from mocks.me_ild1420 import ILD1420Emulator, StreamPacer
 from mocks.panasonic_hlg1 import PanasonicHLG1Emulator
 from mocks.serial_endpoints import ByteEmulator, PtyEndpoint
 from mocks.world import BlockSetup, Noise, World
+from mocks.xymd02 import XYMD02Emulator, start_xymd02, world_source
 from processing.geometry import BlockGeometry, SensorSign
 
 from .errors import UserError
@@ -352,3 +353,21 @@ def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bo
         axis.commanded = stops[axis.index].position
     modbus = ModbusServerThread(emulator.device())
     return SimulatedMachine(axis, modbus.url, modbus)
+
+
+@dataclass
+class SimulatedTransmitter:
+    """An XY-MD02 air temperature / humidity transmitter on Modbus RTU (pty), reading the
+    environment of a simulated world or machine axis."""
+
+    url: str
+    _server: ModbusServerThread
+
+    def close(self) -> None:
+        self._server.stop()
+
+
+def start_simulated_transmitter(environment: World | MachineAxis) -> SimulatedTransmitter:
+    """Serve an XY-MD02 emulator fed by ``environment.environment_now()``; ``.url`` opens it."""
+    server = start_xymd02(XYMD02Emulator(world_source(environment)))  # type: ignore[arg-type]
+    return SimulatedTransmitter(server.url, server)

@@ -19,7 +19,7 @@ def probe(args: argparse.Namespace) -> int:
 
     if args.count < 1:
         raise UserError(f"--count must be at least 1 (got {args.count})")
-    with open_probe(args.sensor, args.controller, baudrate=args.baud) as p:
+    with open_probe(args.sensor, args.controller, baudrate=args.baud, environment=args.environment) as p:
         for line in p.identity_lines():
             print(line, flush=True)
         indices = itertools.count(1) if args.follow else range(1, args.count + 1)
@@ -36,13 +36,16 @@ def probe(args: argparse.Namespace) -> int:
 def register(sub) -> None:  # noqa: ANN001
     d = sub.add_parser("devices", help="check the measuring devices")
     dsub = d.add_subparsers(dest="devices_command", required=True, parser_class=type(d))
-    p = dsub.add_parser("probe", help="show identity and a few readings of the sensor and/or the controller")
+    p = dsub.add_parser("probe", help="show identity and a few readings of the sensor, the controller and/or the "
+                                      "environment transmitter")
     p.add_argument("--sensor", default=None, metavar="PROTOCOL:URL",
                    help="displacement sensor, e.g. keyence-lkg:/dev/ttyUSB0 or keyence-lkg:socket://host:port")
     p.add_argument("--baud", type=int, default=None, metavar="N",
                    help="sensor baud rate (default: the protocol's usual rate)")
     p.add_argument("--controller", default=None, metavar="URL",
                    help="interferometer controller: modbus-tcp://host:port or modbus-rtu:PORT[?baud=..&parity=E]")
+    p.add_argument("--environment", default=None, metavar="URL",
+                   help="XY-MD02 temperature/humidity transmitter: modbus-rtu:PORT[?baud=9600] or modbus-tcp://host:port")
     p.add_argument("--count", type=int, default=3, metavar="N", help="readings to take (default 3)")
     p.add_argument("--follow", action="store_true", help="keep reading until Ctrl-C")
     p.add_argument("--interval", type=float, default=0.5, metavar="S",
