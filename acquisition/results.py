@@ -14,7 +14,7 @@ from matplotlib.figure import Figure  # noqa: E402
 
 from processing.straightness import StraightnessResult  # noqa: E402
 
-from .runstore import write_json_atomic  # noqa: E402
+from .runstore import write_json_atomic, write_text_atomic  # noqa: E402
 
 LINE_LABELS = {"endpoint": "end-point line", "least_squares": "least-squares line",
                "minimum_zone": "minimum-zone line"}
@@ -29,9 +29,7 @@ def write_straightness_results(results_dir: Path, result: StraightnessResult) ->
         prof[f"dev_{name}_um"] = fit.deviations_um
     if result.uncertainty is not None:
         prof["u_um"] = result.uncertainty.per_station_u_um  # standard uncertainty, k = 1
-    tmp = out / ".profile.csv.tmp"
-    prof.to_csv(tmp, index=False, float_format="%.6f")
-    tmp.replace(out / "profile.csv")
+    write_text_atomic(out / "profile.csv", prof.to_csv(index=False, float_format="%.6f"))
     write_json_atomic(out / "summary.json", result.to_dict())
     plot_profile(result, out / "profile.png")
     return out

@@ -13,7 +13,7 @@ import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from .results import legend_above_data, save_figure  # noqa: E402
-from .runstore import write_json_atomic  # noqa: E402
+from .runstore import write_json_atomic, write_text_atomic  # noqa: E402
 
 if TYPE_CHECKING:
     from .evaluate_positioning import PositioningEvaluation
@@ -30,9 +30,7 @@ def write_positioning_results(results_dir: Path, evaluation: PositioningEvaluati
         **{c: f"{c}_{r.unit}" for c in ("mean_up", "mean_down", "mean_bi", "reversal", "s_up", "s_down",
                                         "R_i_up", "R_i_down", "R_i")},
     })
-    tmp = out / ".positioning.csv.tmp"
-    table.to_csv(tmp, index=False, float_format="%.6f")
-    tmp.replace(out / "positioning.csv")
+    write_text_atomic(out / "positioning.csv", table.to_csv(index=False, float_format="%.6f"))
     write_json_atomic(out / "summary.json", evaluation.to_dict())
     plot_positioning(evaluation, out / "positioning.png")
     return out

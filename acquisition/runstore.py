@@ -71,14 +71,15 @@ def _fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
-def write_json_atomic(path: Path, obj: Any) -> None:
-    """Replace ``path`` with ``obj`` as JSON; never leaves a half-written file."""
+def write_text_atomic(path: Path | str, text: str) -> None:
+    """Replace ``path`` with ``text`` (UTF-8, ``\\n`` line ends): a temporary file in the same
+    directory, fsynced, renamed over ``path``, directory fsynced.  A reader sees the old or the
+    new file, never a half-written one."""
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            json.dump(obj, f, indent=2, allow_nan=False)
-            f.write("\n")
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
+            f.write(text)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
@@ -86,6 +87,11 @@ def write_json_atomic(path: Path, obj: Any) -> None:
         Path(tmp).unlink(missing_ok=True)
         raise
     _fsync_dir(path.parent)
+
+
+def write_json_atomic(path: Path | str, obj: Any) -> None:
+    """Replace ``path`` with ``obj`` as JSON (no NaN), atomically (:func:`write_text_atomic`)."""
+    write_text_atomic(path, json.dumps(obj, indent=2, allow_nan=False) + "\n")
 
 
 def format_cell(value: Any) -> str:
@@ -189,18 +195,7 @@ class RunStore:
 
     def _rewrite_points(self, lines: list[str]) -> None:
         """Replace points.csv atomically with ``lines`` (header first)."""
-        path = self.run_dir / "points.csv"
-        fd, tmp = tempfile.mkstemp(prefix=".points.csv.", suffix=".tmp", dir=self.run_dir)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
-                f.write("".join(line + "\n" for line in lines))
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        _fsync_dir(self.run_dir)
+        write_text_atomic(self.run_dir / "points.csv", "".join(line + "\n" for line in lines))
 
     def _retract(self, match: dict[str, Any]) -> None:
         """Withdraw the last point whose fields equal ``match`` (a redo); rewrites points.csv atomically."""

@@ -6,7 +6,6 @@ version and the command that produced the page."""
 
 from __future__ import annotations
 
-import os
 import shlex
 from datetime import UTC, datetime
 from importlib.metadata import PackageNotFoundError, version
@@ -15,7 +14,7 @@ from typing import Any
 
 from ..errors import RunFormatError, UserError
 from ..evaluate import evaluate_run
-from ..runstore import LoadedRun, load_run
+from ..runstore import LoadedRun, load_run, write_text_atomic
 from .common import conventions_section, environment_section, instruments_section, run_section, status_section
 from .html import HtmlPage
 
@@ -76,16 +75,6 @@ def render_report(run: LoadedRun, evaluation: Any, *, not_evaluated: str | None 
     generated = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
     page.paragraph(f"Produced by guideway {tool_version()} on {generated} with: {command}", "note footer")
     return page.render()
-
-
-def write_text_atomic(path: Path, text: str) -> None:
-    """Write through a temporary file in the same directory, then rename over ``path``."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        tmp.write_text(text, encoding="utf-8", newline="\n")
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def build_report(run_dir: Path | str, *, out: Path | str | None = None, **options: Any) -> Path:

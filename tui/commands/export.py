@@ -9,6 +9,7 @@ from pathlib import Path
 
 def run(args: argparse.Namespace) -> int:
     from acquisition.export import ExportOptions, export_run, format_comparison
+    from acquisition.runstore import write_text_atomic
 
     options = ExportOptions(
         fmt=args.format, model=args.model, mode=args.mode, step=args.step, tolerance=args.tolerance,
@@ -30,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         out = args.out or (run_.path / "results" / f"compensation-{args.format}{export.suffix}")
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(export.text, encoding="utf-8", newline="\n")
+        write_text_atomic(out, export.text)
         print(f"{args.format} table ({len(export.table)} points, model {args.model}) written to {out}", file=info)
     for note in export.notes:
         print(note, file=info)
