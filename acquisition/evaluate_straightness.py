@@ -7,6 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
+import numpy as np
+
 from processing.decoupling import DEFAULT_METHOD
 from processing.geometry import BlockGeometry
 from processing.straightness import StraightnessResult, evaluate_straightness
@@ -49,9 +51,42 @@ class StraightnessEvaluation:
                   file=stream)
 
 
-def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, mc_trials: int = 10_000,
+# The channels each decoupling method uses (docs/conventions.md); a NaN/inf there cannot be decoupled.
+METHOD_COLUMNS: dict[str, tuple[str, ...]] = {
+    "exact": ("x_mm", "lin_um", "stry_um", "strz_um", "pitch_urad", "yaw_urad", "roll_urad", "sensor_mm"),
+    "first-order": ("x_mm", "stry_um", "pitch_urad", "roll_urad", "sensor_mm"),
+    "patent": ("x_mm", "stry_um", "pitch_urad", "roll_urad", "sensor_mm"),
+}
+MC_TRIALS = 10_000
+MC_SAMPLE_BUDGET = 2_000_000  # trials x stations: bounds Monte Carlo time and memory on long runs
+
+
+def default_mc_trials(stations: int) -> int:
+    """10 000 Monte Carlo trials, fewer (not below 1000) when trials x stations would pass 2e6."""
+    return max(1000, min(MC_TRIALS, MC_SAMPLE_BUDGET // max(stations, 1)))
+
+
+def check_finite(run: LoadedRun, method: str) -> None:
+    """A one-line error naming the first point and channel that holds no finite value."""
+    for col in METHOD_COLUMNS.get(method, ()):
+        values = run.points[col].to_numpy(dtype=float)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            row = run.points.iloc[int(bad[0])]
+            where = f"station {int(row['station'])}" + (" (return pass)" if int(row.get("pass", 0)) else "")
+            raise RunFormatError(
+                f"{run.path}/points.csv: {where} has {col} = {values[bad[0]]} ({bad.size} such value(s)); "
+                f"the {method} decoupling needs it - redo that station or remove its row"
+            )
+
+
+def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, mc_trials: int | None = None,
                               mc_seed: int = 0) -> StraightnessEvaluation:
-    """Evaluate a loaded straightness run (``mc_trials`` = 0 skips the Monte Carlo evaluation)."""
+    """Evaluate a loaded straightness run.
+
+    ``mc_trials``: Monte Carlo trials for the straightness uncertainty; 0 skips it, None takes
+    :func:`default_mc_trials` of the number of points.
+    """
     try:
         geometry = BlockGeometry.from_dict(run.meta["setup"]["geometry"])
     except (KeyError, TypeError, ValueError) as exc:
@@ -62,6 +97,9 @@ def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, m
         inputs = UncertaintyInputs.from_dict(run.meta["setup"].get("uncertainty"))
     except ValueError as exc:
         raise RunFormatError(f"{run.path}/run.json: {exc}") from exc
+    check_finite(run, method)
+    if mc_trials is None:
+        mc_trials = default_mc_trials(len(run.points))
     try:
         result = evaluate_straightness(run.points, geometry, method=method, uncertainty=inputs,
                                        mc_trials=mc_trials, mc_seed=mc_seed)

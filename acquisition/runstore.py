@@ -317,8 +317,28 @@ def load_run(run_dir: Path | str) -> LoadedRun:
     kind = meta.get("kind")
     if kind not in KINDS:
         raise RunFormatError(f"{meta_path}: unknown run kind {kind!r}")
+    _check_meta_types(meta, meta_path)
     points, warnings = _read_points(run_dir / "points.csv", point_columns(kind, meta.get("axis_type")))
     return LoadedRun(run_dir, meta, points, tuple(warnings))
+
+
+# Types of the run.json keys every reader relies on (absent keys are allowed).
+META_TYPES: dict[str, tuple[type, ...]] = {
+    "status": (str,), "created": (str,), "ended": (str,), "end_reason": (str,), "uid": (str,),
+    "machine": (str,), "axis": (str,), "operator": (str,), "notes": (str,), "points": (int,),
+    "setup": (dict,), "instruments": (dict,), "axis_type": (str,),
+}
+
+
+def _check_meta_types(meta: dict[str, Any], meta_path: Path) -> None:
+    """A hand-edited run.json with a key of the wrong type is refused in one line, not a traceback later."""
+    for key, types in META_TYPES.items():
+        if key in meta and meta[key] is not None and not isinstance(meta[key], types):
+            raise RunFormatError(f"{meta_path}: {key!r} must be {' or '.join(t.__name__ for t in types)}, "
+                                 f"got {type(meta[key]).__name__} {meta[key]!r:.40}; fix or restore run.json")
+    for role, info in (meta.get("instruments") or {}).items():
+        if not isinstance(info, dict):
+            raise RunFormatError(f"{meta_path}: instruments.{role} must be an object, got {info!r:.40}")
 
 
 def _read_points(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame, list[str]]:

@@ -67,7 +67,9 @@ def test_usage_errors_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as info:
         main(["demo", "--stations", "many"])
     assert info.value.code == 2
-    assert "invalid int value" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("guideway: error: argument --stations: invalid int value")
+    assert "guideway demo --help" in err
 
 
 def test_demo_refuses_non_empty_out(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

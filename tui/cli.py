@@ -20,9 +20,8 @@ EXIT_USAGE = 2
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line, exit 2 (argparse prints usage too)
-        self.print_usage(sys.stderr)
-        print(f"guideway: error: {message}", file=sys.stderr)
+    def error(self, message: str) -> None:  # one line, exit 2 (argparse would print its usage block too)
+        print(f"guideway: error: {message}; see '{self.prog} --help'", file=sys.stderr)
         raise SystemExit(EXIT_USAGE)
 
 

@@ -80,6 +80,12 @@ def test_partial_last_line_is_dropped_with_a_warning(tmp_path: Path) -> None:
     assert len(loaded.points) == 3 and "incomplete last line" in loaded.warnings[0]
 
 
+def edit_meta(run: Path, **changes: object) -> None:
+    meta = json.loads((run / "run.json").read_text())
+    meta.update(changes)
+    (run / "run.json").write_text(json.dumps(meta))
+
+
 @pytest.mark.parametrize(
     ("mutate", "message"),
     [
@@ -95,6 +101,10 @@ def test_partial_last_line_is_dropped_with_a_warning(tmp_path: Path) -> None:
         (lambda r: (r / "points.csv").write_text(
             (r / "points.csv").read_text().replace("100.0", "abc", 1)), r"points.csv:3: column x_mm is not a number"),
         (lambda r: (r / "points.csv").write_bytes(b"\xff\xfe\x00"), "not UTF-8"),
+        (lambda r: edit_meta(r, instruments=5), "'instruments' must be dict, got int 5"),
+        (lambda r: edit_meta(r, instruments={"sensor": "keyence"}), "instruments.sensor must be an object"),
+        (lambda r: edit_meta(r, setup=[1, 2]), "'setup' must be dict, got list"),
+        (lambda r: edit_meta(r, machine=7), "'machine' must be str, got int"),
     ],
 )
 def test_bad_run_directories_give_one_line_errors(tmp_path: Path, mutate, message: str) -> None:

@@ -63,3 +63,37 @@ def test_bad_uncertainty_input_is_a_run_format_error(tmp_path: Path) -> None:
     run = make_round_trip(tmp_path, {"angle_urad": "big"})
     with pytest.raises(RunFormatError, match="angle_urad"):
         process_run_dir(run, mc_trials=0)
+
+
+@pytest.mark.parametrize(("column", "value", "method", "refused"), [
+    ("pitch_urad", "nan", "exact", True),
+    ("pitch_urad", "inf", "first-order", True),
+    ("yaw_urad", "nan", "exact", True),  # exact uses all six channels
+    ("yaw_urad", "nan", "first-order", False),  # first-order does not use yaw
+])
+def test_a_missing_channel_value_names_station_and_column(tmp_path: Path, column: str, value: str, method: str,
+                                                           refused: bool) -> None:
+    run = tmp_path / "run"
+    shutil.copytree(V1, run)
+    with open(run / "points.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    rows[3][column] = value
+    with open(run / "points.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    if not refused:
+        process_run_dir(run, method=method, mc_trials=0)
+        return
+    with pytest.raises(RunFormatError) as info:
+        process_run_dir(run, method=method, mc_trials=0)
+    msg = str(info.value)
+    assert f"station {rows[3]['station']} has {column} = {value}" in msg and "\n" not in msg
+
+
+def test_default_monte_carlo_trials_shrink_on_long_runs() -> None:
+    from acquisition.evaluate_straightness import default_mc_trials
+
+    assert default_mc_trials(20) == 10_000 and default_mc_trials(200) == 10_000
+    assert default_mc_trials(1000) == 2000  # trials x stations = 2e6
+    assert default_mc_trials(10_000) == 1000  # never fewer than 1000

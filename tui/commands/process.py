@@ -64,7 +64,8 @@ def add_evaluator_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--method", choices=METHOD_CHOICES, default=None,
                         help="straightness decoupling method (default: exact; see docs/conventions.md)")
     parser.add_argument("--mc-trials", type=int, default=None, metavar="N",
-                        help="Monte Carlo trials for the straightness uncertainty (default 10000; 0 = off)")
+                        help="Monte Carlo trials for the straightness uncertainty (default 10000, fewer "
+                             "above 200 stations: trials x stations <= 2e6, at least 1000; 0 = off)")
     parser.add_argument("--k", type=float, default=None,
                         help="ISO 230-2 coverage factor for a positioning run (default 2)")
     parser.add_argument("--edition", choices=EDITION_CHOICES, default=None,
