@@ -8,6 +8,7 @@ from typing import Any, Literal
 import numpy as np
 
 SensorSign = Literal["height", "gap"]
+MIN_BEAM_DOWN = 0.5  # cos 60 deg: how steeply the sensor beam must point down (-Y) at the surface
 
 
 @dataclass(frozen=True)
@@ -33,6 +34,10 @@ class BlockGeometry:
                 raise ValueError(f"geometry {name} must be three finite numbers, got {v!r}")
         if abs(float(np.linalg.norm(self.sensor_beam)) - 1.0) > 1e-6:
             raise ValueError(f"sensor_beam must be a unit vector, got {self.sensor_beam!r}")
+        if self.sensor_beam[1] > -MIN_BEAM_DOWN:
+            # The sensor reads the base surface below the block: a beam along X or Z never meets it.
+            raise ValueError(f"sensor_beam must point down at the surface (-Y, within 60 degrees; y <= "
+                             f"-{MIN_BEAM_DOWN}), got {self.sensor_beam!r}")
         if self.sensor_sign not in ("height", "gap"):
             raise ValueError(f"sensor_sign must be 'height' or 'gap', got {self.sensor_sign!r}")
 

@@ -47,6 +47,8 @@ def test_travel_length_gives_whole_steps_plus_datum(travel: float, length: float
         (lambda d: d.update(colour="red"), "unknown key 'colour' in top level"),
         (lambda d: d["geometry"].update(sensor_mm=[1, 2]), "sensor_mm must be a list of 3 numbers"),
         (lambda d: d["geometry"].update(sensor_beam=[0, -2, 0]), "unit vector"),
+        (lambda d: d["geometry"].update(sensor_beam=[1, 0, 0]), "must point down at the surface"),
+        (lambda d: d["geometry"].update(sensor_beam=[0.916515139, -0.4, 0]), "must point down at the surface"),
         (lambda d: d.update(controller={"word_order": "BADC"}), "word_order must be ABCD or CDAB"),
         (lambda d: d.update(warmup={"window": 1}), "window must be at least 2"),
         (lambda d: d.update(validation={"sensor_range_mm": [5, -5]}), "low < high"),
