@@ -43,8 +43,15 @@ def test_gum_forward_pass_against_hand_derivation() -> None:
     # two independent captures of every channel, the offsets common to both.
     us2 = U.sensor_noise_um**2 + U.sensor_resolution_um**2 / 12
     ua = U.angle_urad * 1e-3  # um per (mm x urad)
-    h = res.profile["height_um"].to_numpy()
+    # the profile by the first-order formula, written out here (not taken from the result)
+    d = pts[["stry_um", "pitch_urad", "roll_urad", "sensor_mm"]] - pts.iloc[0][["stry_um", "pitch_urad", "roll_urad",
+                                                                                "sensor_mm"]]
+    h = (d["stry_um"] + d["sensor_mm"] * 1000.0 + (XQ - XP) * d["pitch_urad"] * 1e-3
+         - (ZQ - ZP) * d["roll_urad"] * 1e-3).to_numpy()
+    np.testing.assert_allclose(res.profile["height_um"].to_numpy(), h, atol=1e-9)
     x = res.profile["x_mm"].to_numpy()
+    # local slope at each station (central difference inside, one-sided at the end): a placement
+    # error along X of u_step moves the sample point along that slope
     slope = [(h[1] - h[0]) / 100.0, (h[2] - h[0]) / 200.0, (h[2] - h[1]) / 100.0]
     expected = [0.0]
     for k in (1, 2):
