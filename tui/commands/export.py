@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{args.format} table ({len(export.table)} points, model {args.model}) written to {out}", file=info)
     for note in export.notes:
         print(note, file=info)
-    print(f"residual after compensation (measured targets, both directions, {export.error_unit}):", file=info)
+    print(f"residual after compensation ({export.error_unit}):", file=info)
     print(format_comparison(export.comparison, export.error_unit), file=info)
     return 0
 
