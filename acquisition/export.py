@@ -4,7 +4,9 @@ Input: the positioning evaluation's ``result`` with ``per_target`` (DataFrame wi
 ``target_index``, ``target`` (mm or deg), ``mean_up``, ``mean_down`` (x̄_i↑ / x̄_i↓ =
 actual − target in um or arcsec, NaN where a direction was not measured)), ``axis_type``
 ("linear" / "rotary") and ``unit`` ("um" / "arcsec").  Output: the controller file's text, the
-table it was built from and the residual-after-compensation comparison of all models.
+table it was built from and the residual-after-compensation comparison of all models.  With the
+evaluation's ``deviations`` (every run and direction) the comparison applies each table to every
+measured point; without them it can only use the means and says so.
 """
 
 from __future__ import annotations
@@ -20,14 +22,14 @@ from processing.compensation.fanuc import fanuc_pitch_table, fanuc_text, round_h
 from processing.compensation.generic_csv import csv_text
 from processing.compensation.linuxcnc import linuxcnc_comp_text
 from processing.compensation.models import DEFAULT_POLYNOMIAL_DEGREE, MODEL_NAMES
-from processing.compensation.residuals import compare_models, format_comparison
+from processing.compensation.residuals import basis_text, compare_models, format_comparison
 from processing.compensation.siemens import siemens_lec_text
 from processing.compensation.tables import MODES, ErrorTable, equidistant_grid, fit_curves, tabulate
 
 from .errors import UserError
 
 # What the command line needs of the compensation package (tui imports acquisition only).
-__all__ = ["DEFAULT_POLYNOMIAL_DEGREE", "FORMATS", "MODEL_NAMES", "MODES", "Export", "ExportOptions",
+__all__ = ["DEFAULT_POLYNOMIAL_DEGREE", "FORMATS", "MODEL_NAMES", "MODES", "Export", "ExportOptions", "basis_text",
            "build_export", "export_run", "format_comparison"]
 
 FORMATS = ("linuxcnc", "fanuc", "siemens", "csv")
@@ -140,8 +142,11 @@ def _mode(o: ExportOptions) -> str:
     return o.mode or "bidirectional"
 
 
-def build_export(result: Any, options: ExportOptions, *, axis: str = "X") -> Export:
-    """Build the controller file for ``options`` from an evaluation ``result``."""
+def build_export(result: Any, options: ExportOptions, *, axis: str = "X",
+                 deviations: pd.DataFrame | None = None) -> Export:
+    """Build the controller file for ``options`` from an evaluation ``result``.  ``deviations``
+    (the evaluation's columns ``target``, ``direction``, ``run``, ``deviation``) are the measured
+    points the residual comparison is evaluated on; None: the per-target means only."""
     o = options
     if o.fmt not in FORMATS:
         raise UserError(f"unknown format {o.fmt!r}; choose one of {', '.join(FORMATS)}")
@@ -155,11 +160,22 @@ def build_export(result: Any, options: ExportOptions, *, axis: str = "X") -> Exp
         grid = _grid(d, o)
         curves = fit_curves(d.target, d.mean_up, d.mean_down, model=o.model, mode=mode, **model_options)
         table = tabulate(curves, grid)
-        comparison = compare_models(d.target, d.mean_up, d.mean_down, mode=mode, positions=grid, **model_options)
+        comparison = compare_models(d.target, d.mean_up, d.mean_down, mode=mode, positions=grid,
+                                    deviations=deviations, **model_options)
         text, notes = _write(d, o, table, axis)
+        if o.model == "polynomial":
+            notes.append(_degree_note(curves, o.degree))
     except ValueError as exc:
         raise UserError(f"cannot build the {o.fmt} table: {exc}") from exc
     return Export(text, table, comparison, d.position_unit, d.error_unit, SUFFIX[o.fmt], notes)
+
+
+def _degree_note(curves: Any, requested: int) -> str:
+    used = sorted({int(m.degree) for m in (curves.up, curves.down)})
+    text = "/".join(map(str, used))
+    if used == [requested]:
+        return f"polynomial degree {text}"
+    return f"polynomial degree {text} (of {requested} requested: min(requested, targets - 2), at least 1)"
 
 
 def _backlash_note(table: ErrorTable, d: AxisData) -> str:
@@ -223,4 +239,4 @@ def export_run(run_dir: Path | str, options: ExportOptions) -> tuple[Any, Export
     evaluation = evaluate_run(run)
     setup = run.meta.get("setup") or {}
     axis = str(setup.get("axis_name") or run.meta.get("axis") or "X")
-    return run, build_export(evaluation.result, options, axis=axis)
+    return run, build_export(evaluation.result, options, axis=axis, deviations=evaluation.deviations)

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from acquisition.export import ExportOptions, export_run
 from processing.columns import POSITIONING_LINEAR
 from tests.controller_parsers import read_fanuc, read_linuxcnc_comp, read_siemens_lec
 from tui.cli import main
@@ -66,6 +67,18 @@ def test_linuxcnc_file_corrects_the_measured_means(run_dir: Path, tmp_path: Path
     np.testing.assert_allclose(np.array(ERR_DN_UM) + c.correction_um(x, -1), 0.0, atol=2e-3)
     printed = capsys.readouterr().out
     assert "residual after compensation" in printed and "spline" in printed and "segments" in printed
+
+
+def test_residual_comparison_is_evaluated_on_every_run(run_dir: Path) -> None:
+    # the linear table passes through the means, so each point keeps its run's scatter
+    _, ex = export_run(run_dir, ExportOptions(fmt="csv"))
+    cmp = ex.comparison.set_index("model")
+    assert cmp.attrs["basis"] == "points" and cmp.attrs["n_points"] == 2 * len(TARGETS_MM) * len(SCATTER_UM)
+    scatter = np.array(SCATTER_UM)
+    assert cmp.loc["linear"].range == pytest.approx(scatter.max() - scatter.min(), abs=1e-6)
+    assert cmp.loc["linear"].rms == pytest.approx(np.sqrt(np.mean(scatter**2)), abs=1e-6)
+    raw = np.concatenate([np.add.outer(scatter, ERR_UP_UM).ravel(), np.add.outer(scatter, ERR_DN_UM).ravel()])
+    assert cmp.loc["none"].range == pytest.approx(raw.max() - raw.min(), abs=1e-6)
 
 
 def test_siemens_and_fanuc_files(run_dir: Path, tmp_path: Path) -> None:

@@ -8,7 +8,7 @@ from processing.iso230_2 import AXIS_QUANTITIES, QUANTITY_NAMES, VDI3441_NAMES, 
 
 from ..errors import UserError
 from ..evaluate_positioning import PositioningEvaluation
-from ..export import ExportOptions, build_export
+from ..export import ExportOptions, basis_text, build_export
 from ..results_positioning import positioning_figure
 from .html import HtmlPage, figure_png
 
@@ -108,7 +108,7 @@ def residual_section(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
     """The model comparison ``guideway export`` prints (CSV format: each model's own nodes)."""
     page.heading("Residual after compensation, per model", 3)
     try:
-        export = build_export(evaluation.result, ExportOptions(fmt="csv"))
+        export = build_export(evaluation.result, ExportOptions(fmt="csv"), deviations=evaluation.deviations)
     except UserError as exc:
         page.paragraph(f"Not computed: {exc}", "note")
         return
@@ -116,12 +116,17 @@ def residual_section(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
     rows = []
     for row in export.comparison.itertuples(index=False):
         if row.note:
-            rows.append((row.model, "—", None, None, None, None, f"not fitted: {row.note}"))
+            rows.append((row.model, "—", None, None, None, None, None, None, f"not fitted: {row.note}"))
             continue
         pts = "—" if row.model == "none" else int(row.table_points)
-        rows.append((row.model, pts, row.max_abs, row.range, row.rms, row.reduction_pct, ""))
+        rows.append((row.model, pts, row.max_abs, row.range, row.rms, row.reduction_pct, row.E, row.M, row.detail))
     page.table(("model", "table points", f"max |r| ({u})", f"range ({u})", f"RMS ({u})",
-                "range reduction (%)", "note"), rows, digits=3, text_columns=(0, 6))
-    page.paragraph("Remaining error at the measured targets, both directions, after a bidirectional table of each "
-                   "model on its own nodes (as `guideway export --format csv`); the controller interpolates "
-                   "linearly between table points. 'none' = uncompensated.", "note")
+                "range reduction (%)", f"E ({u})", f"M ({u})", "note"), rows, digits=3, text_columns=(0, 8))
+    page.paragraph(f"{_sentence(basis_text(export.comparison))}. Bidirectional table of each model on its own "
+                   "nodes (as `guideway export --format csv`); the controller interpolates linearly between table "
+                   "points. 'none' = uncompensated; E, M = ISO 230-2 E and M of the compensated per-target means.",
+                   "note")
+
+
+def _sentence(text: str) -> str:
+    return text[:1].upper() + text[1:]

@@ -11,7 +11,8 @@ Models (standards.md §5, seeds 003 and 004):
 * ``spline``     – natural cubic spline with adaptive knots (seed 003, :func:`fit_adaptive_spline`);
 * ``segments``   – piecewise least-squares line segments, threshold max|e|/20 (seed 004,
   :func:`fit_segments`);
-* ``polynomial`` – least-squares polynomial of a given degree.
+* ``polynomial`` – least-squares polynomial of a given degree, lowered to n − 2 (at least 1)
+  when there are only n < degree + 2 points (:func:`polynomial_degree`).
 
 Forward (↑) and reverse (↓) curves are modelled separately by fitting each on its own.
 """
@@ -251,6 +252,15 @@ def fit_polynomial(x: np.ndarray, e: np.ndarray, *, degree: int = DEFAULT_POLYNO
     return PolynomialModel("polynomial", x, e, x.copy(), degree, poly)
 
 
+def polynomial_degree(requested: int, n_points: int) -> int:
+    """The degree actually fitted: min(requested, n_points − 2), at least 1 (never above the
+    request).  n − 2 keeps one degree of freedom for the least-squares fit, so a 5-target run
+    with the default degree 6 gets degree 3 instead of no model at all."""
+    if requested < 0:
+        raise ValueError("polynomial degree must be >= 0")
+    return min(requested, max(n_points - 2, 1))
+
+
 def fit_model(
     name: str,
     x: np.ndarray,
@@ -261,7 +271,8 @@ def fit_model(
     degree: int = DEFAULT_POLYNOMIAL_DEGREE,
 ) -> ErrorModel:
     """Fit the model called ``name`` (one of :data:`MODEL_NAMES`).  ``tolerance`` is the spline
-    tolerance or the segment threshold (unit of ``e``, default max|e|/20)."""
+    tolerance or the segment threshold (unit of ``e``, default max|e|/20).  The polynomial's
+    degree is reduced to :func:`polynomial_degree` when there are too few points for it."""
     if name == "linear":
         return fit_linear(x, e)
     if name == "spline":
@@ -269,5 +280,5 @@ def fit_model(
     if name == "segments":
         return fit_segments(x, e, threshold=tolerance)
     if name == "polynomial":
-        return fit_polynomial(x, e, degree=degree)
+        return fit_polynomial(x, e, degree=polynomial_degree(degree, len(np.atleast_1d(x))))
     raise ValueError(f"unknown model {name!r}; choose one of {', '.join(MODEL_NAMES)}")

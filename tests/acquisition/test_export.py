@@ -118,8 +118,21 @@ def test_bad_inputs_are_user_errors() -> None:
         build_export(result(), ExportOptions(fmt="siemens", step=1e-5))
     with pytest.raises(UserError, match="256"):
         build_export(result(), ExportOptions(fmt="linuxcnc", step=1.0))
-    with pytest.raises(UserError, match="at least 7"):
-        build_export(result(TARGET[:5], UP[:5], DOWN[:5]), ExportOptions(fmt="csv", model="polynomial"))
+    bad = pd.DataFrame({"target": TARGET, "direction": 0, "deviation": UP})
+    with pytest.raises(UserError, match=r"\+1 or -1"):
+        build_export(result(), ExportOptions(fmt="csv"), deviations=bad)
+
+
+def test_polynomial_on_few_targets_uses_a_lower_degree_and_says_so() -> None:
+    # 5 targets, default degree 6 → degree min(6, 5 − 2) = 3, a least-squares cubic per direction
+    ex = build_export(result(TARGET[:5], UP[:5], DOWN[:5]), ExportOptions(fmt="csv", model="polynomial"))
+    assert any("polynomial degree 3 (of 6 requested" in n for n in ex.notes)
+    x = TARGET[:5] / 100.0
+    a = np.vander(x, 4)
+    for mean, tab in ((UP[:5], ex.table.error_up), (DOWN[:5], ex.table.error_down)):
+        fit = a @ np.linalg.lstsq(a, mean, rcond=None)[0]
+        np.testing.assert_allclose(tab, fit, atol=1e-9)
+    assert "degree 3" in ex.comparison.set_index("model").loc["polynomial"].detail
 
 
 STRAIGHTNESS_RUN = Path(__file__).resolve().parents[1] / "data" / "runs" / "v1-straightness"

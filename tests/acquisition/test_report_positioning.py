@@ -90,16 +90,25 @@ def test_positioning_report_values_edition_and_names(positioning_run: Path, tmp_
 
     residual = rows_by_first_cell(table_with_header(doc, "model", "RMS (µm)"))
     assert set(residual) == {"none", "linear", "spline", "segments", "polynomial"}
-    # uncompensated: the residual is the mean deviations themselves
-    assert number(residual["none"]["range (µm)"]) == pytest.approx(exp["E"], abs=5e-4)
-    assert number(residual["none"]["max |r| (µm)"]) == pytest.approx(exp["max_abs_mean"], abs=5e-4)
-    fitted = [m for m in ("linear", "spline", "segments", "polynomial") if not residual[m]["note"]]
-    assert "linear" in fitted  # piecewise linear through the means: no residual at the targets
-    assert number(residual["linear"]["max |r| (µm)"]) == pytest.approx(0.0, abs=5e-4)
-    for model in fitted:
-        assert number(residual[model]["range (µm)"]) <= exp["E"] + 5e-4
-    for model in set(residual) - set(fitted) - {"none"}:
-        assert residual[model]["note"].startswith("not fitted: ") and residual[model]["range (µm)"] == "—"
+    assert "Residual at every measured point" in doc
+    # uncompensated: the residual is every measured deviation itself; E of it is the ISO E
+    raw = [deviation_um(run, d, i) for run in range(1, RUNS + 1) for d in (1, -1) for i in range(len(TARGETS_MM))]
+    assert number(residual["none"]["range (µm)"]) == pytest.approx(max(raw) - min(raw), abs=5e-4)
+    assert number(residual["none"]["max |r| (µm)"]) == pytest.approx(max(abs(x) for x in raw), abs=5e-4)
+    assert number(residual["none"]["E (µm)"]) == pytest.approx(exp["E"], abs=5e-4)
+    # linear through the means: each point keeps its deviation from its target/direction mean
+    scatter = []
+    for d in (1, -1):
+        for i in range(len(TARGETS_MM)):
+            xs = [deviation_um(run, d, i) for run in range(1, RUNS + 1)]
+            scatter += [x - sum(xs) / len(xs) for x in xs]
+    lin = residual["linear"]
+    assert number(lin["max |r| (µm)"]) == pytest.approx(max(abs(x) for x in scatter), abs=5e-4)
+    assert number(lin["range (µm)"]) == pytest.approx(max(scatter) - min(scatter), abs=5e-4)
+    assert number(lin["RMS (µm)"]) == pytest.approx(math.sqrt(sum(x * x for x in scatter) / len(scatter)), abs=5e-4)
+    assert number(lin["E (µm)"]) == pytest.approx(0.0, abs=5e-4)
+    # 4 targets: the polynomial is fitted with degree min(6, 4 − 2) = 2 and says so
+    assert residual["polynomial"]["note"].startswith("degree 2 (of 6 requested")
 
     comp = rows_by_first_cell(table_with_header(doc, "item", None))  # the run table
     assert comp["kind"]["value"] == "positioning"

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from processing.compensation.models import polynomial_degree
 from processing.compensation.residuals import ResidualStats, compare_models, format_comparison
 from processing.compensation.tables import build_table, equidistant_grid, split_directions
 
@@ -66,10 +67,27 @@ def test_residual_statistics_by_hand() -> None:
 
 
 def test_a_model_that_cannot_be_fitted_is_reported_not_fatal() -> None:
-    df = compare_models(TARGET, UP, DOWN, models=["linear", "polynomial"], degree=6)
+    # backlash mode needs 2 targets measured in both directions; here only the last one is
+    down = np.array([np.nan, np.nan, np.nan, 1.0])
+    df = compare_models(TARGET, UP, down, models=["linear", "polynomial"], mode="backlash")
     poly = df.set_index("model").loc["polynomial"]
-    assert np.isnan(poly.max_abs) and "at least 7" in poly.note
-    assert "not fitted: need at least 7" in format_comparison(df, "um")
+    assert np.isnan(poly.max_abs) and "at least 2 targets measured in both" in poly.note
+    assert "not fitted: backlash mode needs" in format_comparison(df, "um")
+
+
+def test_polynomial_degree_drops_to_n_minus_2_when_targets_are_few() -> None:
+    assert polynomial_degree(6, 5) == 3 and polynomial_degree(6, 2) == 1 and polynomial_degree(6, 3) == 1
+    assert polynomial_degree(2, 10) == 2 and polynomial_degree(0, 3) == 0
+    # 4 targets, degree 6 requested → degree 2: the residual is that of the least-squares parabola
+    df = compare_models(TARGET, UP, UP, models=["polynomial"], degree=6)
+    poly = df.iloc[1]
+    x = TARGET / 100.0
+    a = np.vstack([np.ones(4), x, x**2]).T  # normal equations of the parabola, solved independently
+    coef = np.linalg.solve(a.T @ a, a.T @ UP)
+    r = UP - a @ coef
+    assert poly.note == "" and "degree 2 (of 6 requested" in poly.detail
+    assert poly.max_abs == pytest.approx(np.max(np.abs(r))) and poly.rms == pytest.approx(np.sqrt(np.mean(r**2)))
+    assert "degree 2" in format_comparison(df, "um")
 
 
 def test_residual_on_a_coarser_controller_grid() -> None:

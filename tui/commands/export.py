@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{args.format} table ({len(export.table)} points, model {args.model}) written to {out}", file=info)
     for note in export.notes:
         print(note, file=info)
-    print(f"residual after compensation (measured targets, both directions, {export.error_unit}):", file=info)
+    print(f"residual after compensation ({export.error_unit}):", file=info)
     print(format_comparison(export.comparison, export.error_unit), file=info)
     return 0
 
@@ -61,7 +61,8 @@ def register(sub) -> None:  # noqa: ANN001
                     help="spline tolerance / segment threshold, um or arcsec (default max|e|/20)")
     ex.add_argument("--initial-knots", type=int, default=None,
                     help="spline: curvature maxima taken as initial knots, largest first (default all)")
-    ex.add_argument("--degree", type=int, default=DEFAULT_POLYNOMIAL_DEGREE, help="polynomial degree")
+    ex.add_argument("--degree", type=int, default=DEFAULT_POLYNOMIAL_DEGREE,
+                    help="polynomial degree (lowered to targets - 2, at least 1, with fewer targets)")
     ex.add_argument("--axis", default=None, help="axis name (default run.json setup.axis_name)")
     ex.add_argument("--reference-position", type=float, default=None,
                     help="fanuc: reference position, mm (default first target); siemens: table zero point")
