@@ -53,3 +53,15 @@ def test_acquire_recovers_from_a_device_that_goes_away(tmp_path: Path, setup_fil
     run = load_run(out)
     assert run.meta["status"] == "complete" and run.points["station"].tolist() == list(range(6))
     assert len(run.meta["faults"]) == 1 and device in run.meta["faults"][0]
+
+
+def test_a_reply_still_delayed_at_the_end_leaves_stderr_clean(tmp_path: Path, setup_file: Path  # noqa: F811
+                                                                ) -> None:
+    # the 3 s delay outlasts the driver's 1 s timeout: the reply is still pending in the emulator's
+    # event loop when the run ends and the server stops
+    res = guideway("acquire", "straightness", "--setup", str(setup_file), "--out", str(tmp_path / "run"),
+                   "--simulate", "--auto", "--faults", "controller:delay@10x1=3")
+    assert res.returncode == 0, res.stderr
+    assert "device fault: controller" in res.stdout and "devices reconnected" in res.stdout
+    assert "Task was destroyed" not in res.stderr and "Traceback" not in res.stderr, res.stderr
+    assert not [ln for ln in res.stderr.splitlines() if ln.startswith("task: <Task")], res.stderr
