@@ -11,6 +11,8 @@ into :func:`run_straightness`.
 from __future__ import annotations
 
 import sys
+import tempfile
+from contextlib import ExitStack
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, TextIO
@@ -124,16 +126,25 @@ def run_straightness(
         simulate = SimOptions(int(stored["seed"]), bool(stored["noise"]), simulate.faults, simulate.wire_time)
     sim = None
     transmitter: SimulatedTransmitter | None = None
+    cleanup = ExitStack()
     if simulate is not None:
+        # the sensor is opened through a stable symlink (like a udev name), so a ``close`` fault that
+        # re-creates the pty is reconnected by re-opening the same name; removed when the run ends
+        link_dir = cleanup.enter_context(tempfile.TemporaryDirectory(prefix="guideway-sim-"))
         # the family the set-up names, at the set-up's line rate if it gives one, else the family's own
-        sim = start_simulated_rig(seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
-                                  sensor=setup.devices.sensor_protocol, baudrate=setup.devices.sensor_baud,
-                                  block_length_mm=setup.block_length_mm, geometry=setup.geometry,
-                                  wire_time=simulate.wire_time)
+        try:
+            sim = start_simulated_rig(seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
+                                      sensor=setup.devices.sensor_protocol, baudrate=setup.devices.sensor_baud,
+                                      block_length_mm=setup.block_length_mm, geometry=setup.geometry,
+                                      wire_time=simulate.wire_time, sensor_link=Path(link_dir) / "sensor")
+        except BaseException:
+            cleanup.close()
+            raise
         transmitter = _simulated_transmitter(setup.devices.environment_url, sim.world, stream)
         devices = DeviceSetup(sim.sensor_protocol, sim.sensor_url, sim.sensor_baudrate, sim.controller_url,
                               setup.devices.word_order, transmitter.url if transmitter is not None else "")
-        print(f"simulated sensor     : {sim.sensor_protocol} on {sim.sensor_url}", file=stream)
+        print(f"simulated sensor     : {sim.sensor_protocol} on {sim.sensor_url} (pty {sim.sensor_path()})",
+              file=stream)
         own_sign = sensor_emulator(sim.sensor_protocol).sensor_sign
         if sim.sensor_sign != own_sign:
             print(f"note: a {sim.sensor_protocol} gives {own_sign}-type values; simulated with sensor_sign "
@@ -171,6 +182,7 @@ def run_straightness(
             transmitter.close()
         if sim is not None:
             sim.close()
+        cleanup.close()
     print(f"run {outcome.exit_status}: {store.points_written} points in {out}"
           + (f" ({outcome.reason})" if outcome.reason else ""), file=stream)
     return AcquireResult(out, outcome, setup, sim, tuple(engine.faults), live)

@@ -15,13 +15,13 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 from drivers.environment.xymd02 import XYMD02
-from drivers.errors import DeviceError, DriverError
+from drivers.errors import ConnectionLost, DeviceError, DriverError, TransportTimeout
 from drivers.interferometer import InterferometerController
 from drivers.readings import ControllerStatus, DisplacementReading, InterferometerReading
 from drivers.sensor import DisplacementSensor
 
 from .errors import UserError
-from .rig import open_controller, open_environment, open_sensor
+from .rig import CONTROLLER_HINT, open_controller, open_environment, open_sensor
 
 
 def parse_sensor_spec(spec: str) -> tuple[str, str]:
@@ -34,6 +34,17 @@ def parse_sensor_spec(spec: str) -> tuple[str, str]:
 
 def _identity(info: dict[str, str]) -> str:
     return " ".join(f"{k}={v}" for k, v in info.items()) if info else "(no identity offered)"
+
+
+def sensor_identity(sensor: DisplacementSensor) -> str:
+    """The sensor's identity line; for a command set without an identity query, says so
+    (the family named is what the driver speaks, not what answered)."""
+    info = sensor.identify()
+    if sensor.identity_query:
+        return _identity(info)
+    family = info.pop("model", "")
+    return _identity({"model": f"(not reported; protocol {sensor.protocol})",
+                      **({"commands": family} if family else {}), **info})
 
 
 def status_flags(st: ControllerStatus) -> str:
@@ -74,20 +85,25 @@ class Probe:
     environment_name: str = ""
 
     def _fail(self, name: str, exc: DriverError) -> UserError:
-        return UserError(f"{name} did not answer properly: {exc}")
+        hint = (f"; {CONTROLLER_HINT}" if name == self.controller_name
+                and isinstance(exc, (ConnectionLost, TransportTimeout)) else "")
+        return UserError(f"{name} did not answer properly: {exc}{hint}")
 
     def identity_lines(self) -> list[str]:
         lines = []
         if self.sensor is not None:
             try:
-                lines.append(f"{self.sensor_name}: {_identity(self.sensor.identify())}")
+                lines.append(f"{self.sensor_name}: {sensor_identity(self.sensor)}")
             except DriverError as exc:
                 raise self._fail(self.sensor_name, exc) from exc
         if self.controller is not None:
             try:
-                lines.append(f"{self.controller_name}: {_identity(self.controller.identify())}")
+                info = self.controller.identify()
+                if not info:  # identification is optional: make sure something answers before saying so
+                    self.controller.read_status()
             except DriverError as exc:
                 raise self._fail(self.controller_name, exc) from exc
+            lines.append(f"{self.controller_name}: {_identity(info)}")
         if self.environment is not None:
             lines.append(f"{self.environment_name}: model=XY-MD02 (no identity query in its register map)")
         return lines

@@ -141,12 +141,15 @@ def open_environment(url: str) -> XYMD02:
     return transmitter
 
 
+CONTROLLER_HINT = "check the controller address and that it is switched on"
+
+
 def open_controller(url: str, *, word_order: str = "ABCD") -> InterferometerController:
     """Connect to the interferometer controller; a one-line :class:`UserError` if unreachable."""
     try:
         return InterferometerController.from_url(url, word_order=word_order)
     except (DriverError, ValueError) as exc:
-        raise UserError(f"{exc}; check the controller address and that it is switched on") from exc
+        raise UserError(f"{exc}; {CONTROLLER_HINT}") from exc
 
 
 def open_controller_rig(controller_url: str, *, word_order: str = "ABCD", environment_url: str | None = None) -> Rig:

@@ -116,6 +116,7 @@ class ModbusLink:
             parts = urlsplit(url)
             if not parts.hostname:
                 raise ValueError(f"Modbus URL {url!r} has no host; use modbus-tcp://HOST:PORT")
+            self.peer: str | None = f"{parts.hostname}:{parts.port or 502}"
             self.client: ModbusTcpClient | ModbusSerialClient = ModbusTcpClient(
                 parts.hostname, port=parts.port or 502, timeout=timeout_s, retries=0,
                 trace_packet=self._trace)
@@ -124,6 +125,7 @@ class ModbusLink:
             if not port:
                 raise ValueError(f"Modbus URL {url!r} has no serial port; use modbus-rtu:/dev/ttyUSB0?baud=19200")
             self.serial = parse_rtu_settings(query, rtu_default)
+            self.peer = None  # a serial line: no connection to refuse or close
             self.client = ModbusSerialClient(
                 port, framer=FramerType.RTU, baudrate=self.serial.baudrate, parity=self.serial.parity,
                 stopbits=self.serial.stopbits, bytesize=8, timeout=timeout_s, retries=0,
@@ -142,7 +144,9 @@ class ModbusLink:
             raise ConnectionLost(f"cannot connect to {self.name} at {self.url}: {exc}") from exc
         if not ok:
             self.client.close()
-            raise ConnectionLost(f"cannot connect to {self.name} at {self.url}: connection refused or port missing")
+            why = (f"no Modbus answer from {self.peer} within {self.timeout_s} s / connection refused"
+                   if self.peer is not None else "connection refused or port missing")
+            raise ConnectionLost(f"cannot connect to {self.name} at {self.url}: {why}")
 
     def close(self) -> None:
         self.client.close()
@@ -161,6 +165,10 @@ class ModbusLink:
             return ChecksumError(f"{self.name} {self.url}: {what}: reply failed the RTU CRC check ({shown})")
         return ProtocolError(f"{self.name} {self.url}: {what}: no valid Modbus reply in the bytes received ({shown})")
 
+    def _lost(self, what: str, detail: str) -> ConnectionLost:
+        return ConnectionLost(f"{self.name} {self.url}: {what}: connection lost: no Modbus answer from "
+                              f"{self.peer} ({detail})")
+
     def call(self, what: str, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
         """Run one client request; return the response or raise a typed error."""
         self._rx = b""
@@ -168,6 +176,8 @@ class ModbusLink:
             rr = fn(*args, device_id=self.device_id, **kwargs)
         except ConnectionException as exc:
             self.client.close()  # make sure the next request reconnects
+            if self.peer is not None:  # pymodbus's text ("closed 0.000 seconds into read ...") says less than this
+                raise self._lost(what, "it closed the connection or refused a new one") from exc
             raise ConnectionLost(f"{self.name} {self.url}: {what}: connection lost ({exc})") from exc
         except ModbusIOException as exc:
             if self._rx:
@@ -177,6 +187,8 @@ class ModbusLink:
             raise ProtocolError(f"{self.name} {self.url}: {what}: {exc}") from exc
         except OSError as exc:
             self.client.close()
+            if self.peer is not None:
+                raise self._lost(what, (exc.strerror or str(exc)).lower()) from exc
             raise ConnectionLost(f"{self.name} {self.url}: {what}: {exc}") from exc
         except (struct.error, ValueError, IndexError, KeyError) as exc:  # pymodbus decoding a malformed PDU
             raise self._garbled(what) from exc

@@ -21,6 +21,9 @@ class DisplacementSensor(ABC):
     """A laser displacement sensor on a byte link."""
 
     protocol: str = ""
+    #: True when :meth:`identify` asks the device; False when it only names the driver's family
+    #: (a command set without an identity query: nothing on the line says which device answers).
+    identity_query: bool = False
 
     def __init__(self, link: ByteLink, *, endpoint: str = "", timeout_s: float = 0.5) -> None:
         self._link = link

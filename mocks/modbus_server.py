@@ -151,7 +151,22 @@ class ModbusServerThread:
             return
         self._ready.set()
         self._loop.run_forever()
+        self._finish_pending()
         self._loop.close()
+
+    def _finish_pending(self) -> None:
+        """Cancel and await the tasks still pending when the loop stopped.
+
+        pymodbus runs each request in a task it does not keep; one still waiting (a ``delay``
+        fault) when the server stops would otherwise be destroyed pending, which asyncio logs
+        ("Task was destroyed but it is pending!") on stderr.
+        """
+        pending = asyncio.all_tasks(self._loop)
+        for task in pending:
+            task.cancel()
+        if pending:
+            self._loop.run_until_complete(asyncio.gather(*pending, return_exceptions=True))
+        self._loop.run_until_complete(self._loop.shutdown_asyncgens())
 
     def stop(self) -> None:
         if self.server is not None and self._loop.is_running():

@@ -70,7 +70,11 @@ def test_demo_writes_run_and_results(tmp_path: Path) -> None:
     assert meta["status"] == "complete" and meta["setup"]["stations"] == 5
     assert meta["instruments"]["sensor"]["protocol"] == "keyence-lkg"
     assert meta["instruments"]["interferometer"]["model"] == "SIM-6DOF-IFM"
-    assert meta["instruments"]["sensor"]["endpoint"].startswith("/dev/pts/")
+    # the stable name the driver opened (a symlink to the pty, removed when the run ended)
+    endpoint = Path(meta["instruments"]["sensor"]["endpoint"])
+    assert endpoint.name == "sensor" and endpoint.parent.name.startswith("guideway-sim-")
+    assert not endpoint.parent.exists()
+    assert f"on {endpoint} (pty /dev/pts/" in out.getvalue()
     for name in ("profile.csv", "profile.png", "summary.json"):
         assert (run / "results" / name).stat().st_size > 0
     assert (run / "results" / "profile.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -66,6 +66,7 @@ class ILD1420(DisplacementSensor):
     """
 
     protocol = "me-ild1420"
+    identity_query = True  # GETINFO
 
     def __init__(
         self,

@@ -4,9 +4,13 @@ errors shown as readings, and one-line exit-2 failures."""
 
 from __future__ import annotations
 
+import contextlib
 import signal
+import socket
 import subprocess
 import sys
+import threading
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -29,7 +33,9 @@ def test_both_devices_identity_and_three_readings(sim_rig, capsys: pytest.Captur
     sensor = f"{sim_rig.sensor_protocol}:{sim_rig.sensor_url}"
     code, lines, err = probe(capsys, "--sensor", sensor, "--controller", sim_rig.controller_url)
     assert code == 0, err
-    assert lines[0] == f"sensor {sensor}: model=Keyence LK-G3000 (RS-232C)"
+    # the LK-G command set has no identity query: the line says so, and names the command set spoken
+    assert lines[0] == (f"sensor {sensor}: model=(not reported; protocol keyence-lkg) "
+                        "commands=Keyence LK-G3000 (RS-232C)")
     assert lines[1].startswith(f"controller {sim_rig.controller_url}: vendor=guideway-sim")
     assert "model=SIM-6DOF-IFM" in lines[1]
     sensor_lines = [ln for ln in lines if " sensor: " in ln]
@@ -86,7 +92,9 @@ def test_sensor_that_hangs_up_exits_2(capsys: pytest.CaptureFixture[str]) -> Non
     [((), "nothing to probe"),
      (("--sensor", "/dev/ttyUSB0"), "must be PROTOCOL:URL"),
      (("--sensor", "acme-laser:/dev/ttyUSB0"), "unknown sensor protocol 'acme-laser'"),
-     (("--controller", "modbus-tcp://127.0.0.1:1"), "cannot connect to controller"),
+     (("--controller", "modbus-tcp://127.0.0.1:1"),
+      "cannot connect to controller at modbus-tcp://127.0.0.1:1: no Modbus answer from 127.0.0.1:1 within 1.0 s "
+      "/ connection refused; check the controller address"),
      (("--controller", "http://x"), "must start with modbus-tcp://")],
 )
 def test_bad_or_unreachable_devices_exit_2(capsys: pytest.CaptureFixture[str], args, fragment: str) -> None:
@@ -106,3 +114,47 @@ def test_follow_runs_until_ctrl_c(sim_rig) -> None:
         out, err = proc.communicate(timeout=30)
     assert seen[5].startswith("#5 sensor:")
     assert proc.returncode == 0 and "Traceback" not in err
+
+
+def test_a_sensor_of_another_family_is_not_given_a_model(capsys: pytest.CaptureFixture[str]) -> None:
+    rig = start_simulated_rig(seed=1, noise=False, sensor="panasonic-hlg1")  # an HL-G1 on the line
+    try:
+        code, lines, err = probe(capsys, "--sensor", f"keyence-lkg:{rig.sensor_url}", "--baud", "9600")
+    finally:
+        rig.close()
+    assert code == 2 and err.count("\n") == 1 and "did not answer properly" in err
+    assert all("model=Keyence" not in ln for ln in lines), lines
+    assert lines and "model=(not reported; protocol keyence-lkg)" in lines[0]
+
+
+@pytest.fixture
+def hang_up_port() -> Iterator[int]:
+    """A loopback TCP port whose listener accepts every connection and closes it at once (no Modbus)."""
+    listener = socket.create_server(("127.0.0.1", 0))
+    stop = threading.Event()
+
+    def serve() -> None:
+        while not stop.is_set():
+            with contextlib.suppress(OSError):
+                conn, _ = listener.accept()
+                conn.close()
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield listener.getsockname()[1]
+    finally:
+        stop.set()
+        listener.close()
+        with contextlib.suppress(OSError):  # wake the accept() if it still waits
+            socket.create_connection(("127.0.0.1", listener.getsockname()[1]), timeout=0.5).close()
+        thread.join(timeout=5)
+
+
+def test_a_port_that_hangs_up_is_no_modbus_answer_one_line(hang_up_port: int,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    code, lines, err = probe(capsys, "--controller", f"modbus-tcp://127.0.0.1:{hang_up_port}")
+    assert code == 2 and lines == []  # no identity line for a device that never answered
+    assert err.startswith("guideway: error:") and err.count("\n") == 1
+    assert f"no Modbus answer from 127.0.0.1:{hang_up_port}" in err and "check the controller address" in err
+    assert "seconds into read" not in err
