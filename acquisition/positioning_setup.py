@@ -55,7 +55,8 @@ class TriggerSetup:
 
 @dataclass(frozen=True)
 class SimulatedAxisSetup:
-    """Errors of the simulated machine axis (``--simulate``): um (linear) or arcsec (rotary)."""
+    """Errors of the simulated machine axis (``--simulate``): um (linear) or arcsec (rotary), and the
+    conditions its controller measures (air C, hPa, %RH, material C, drift C per hour of machine time)."""
 
     pitch_amplitude: float = 4.0
     pitch_wavelength: float = 700.0
@@ -65,6 +66,16 @@ class SimulatedAxisSetup:
     periodic_period: float = 10.0
     thermal_per_m_per_h: float = 4.0
     noise: float = 0.15
+    air_temp_c: float = 20.4
+    air_pressure_hpa: float = 1012.8
+    humidity_pct: float = 45.0
+    material_temp_c: float = 20.2
+    drift_c_per_h: float = 0.05
+
+    def errors(self) -> tuple[float, ...]:
+        """The error-model values (without the environment)."""
+        return (self.pitch_amplitude, self.pitch_wavelength, self.slope_per_m, self.backlash, self.periodic,
+                self.periodic_period, self.thermal_per_m_per_h, self.noise)
 
 
 @dataclass(frozen=True)
