@@ -23,6 +23,7 @@ from __future__ import annotations
 from .positioning_setup import PositioningSetup
 
 INPOS_MCODE = 100
+CYCLE_TITLES = {"linear": "standard test cycle", "step": "step cycle - Annex B"}
 
 
 def _num(v: float, decimals: int = 4) -> str:
@@ -37,10 +38,13 @@ def part_program(setup: PositioningSetup) -> str:
     stops = setup.stops()
     lines: list[str] = []
     c = (lambda t: f"({t.upper()})") if fanuc else (lambda t: f"({t})")
+    # "linear cycle" is the standard's name of its standard test cycle, not the axis type: say which
+    # cycle in words that cannot be read as the axis (no nested parentheses in a G-code comment)
+    title = f"guideway ISO 230-2 {CYCLE_TITLES[setup.cycle]}, {setup.axis_type} axis {ax}"
     if fanuc:
-        lines += ["%", f"O{setup.program_number:04d} {c('guideway ISO 230-2 ' + setup.cycle + ' cycle ' + ax)}"]
+        lines += ["%", f"O{setup.program_number:04d} {c(title)}"]
     else:
-        lines.append(c(f"guideway ISO 230-2 {setup.cycle} cycle, axis {ax}"))
+        lines.append(c(title))
     lines.append(c(f"{len(setup.targets)} targets, {setup.runs} runs each direction, overrun {_num(setup.overrun)} "
                    f"{u}, dwell {_num(tr.dwell_s, 2)} s, trigger {tr.mode}"))
     lines.append("G90 G94 G21" if setup.axis_type == "linear" else "G90 G94")

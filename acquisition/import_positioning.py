@@ -15,12 +15,14 @@ import csv
 import io
 import math
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from processing.air_index import DEFAULT_EQUATION, EQUATIONS
 from processing.columns import ENVIRONMENT, ERROR_CHANNELS
+from processing.iso230_2 import check_target_count
 
 from .errors import UserError
 from .runstore import RunStore
@@ -175,8 +177,13 @@ def parse_positioning_csv(text: str, name: str, opts: PositioningImport) -> list
     return records
 
 
-def import_positioning(csv_path: Path | str, out: Path | str, opts: PositioningImport) -> tuple[Path, int]:
-    """Read ``csv_path`` and write the run directory ``out``; return (out, points written)."""
+def import_positioning(csv_path: Path | str, out: Path | str, opts: PositioningImport,
+                       warn: Callable[[str], None] | None = None) -> tuple[Path, int]:
+    """Read ``csv_path`` and write the run directory ``out``; return (out, points written).
+
+    Fewer than 2 targets are refused (no E, M or A); fewer than the ISO 230-2 target rule asks
+    for are imported, with the rule passed to ``warn`` (and noted again when evaluated).
+    """
     csv_path = Path(csv_path)
     try:
         text = csv_path.read_text(encoding="utf-8-sig")
@@ -187,6 +194,12 @@ def import_positioning(csv_path: Path | str, out: Path | str, opts: PositioningI
     records = parse_positioning_csv(text, str(csv_path), opts)
     target_col, reading_col = _columns(opts.axis_type)
     targets = sorted({r[target_col] for r in records})
+    try:
+        note = check_target_count(targets, opts.axis_type)
+    except ValueError as exc:
+        raise UserError(f"{csv_path}: {exc}") from None
+    if note and warn is not None:
+        warn(f"{csv_path}: {note}")
     index = {t: i for i, t in enumerate(targets, start=1)}
     for r in records:
         r["target_index"] = index[r[target_col]]

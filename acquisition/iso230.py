@@ -21,10 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from processing.iso230_2 import check_target_count, required_targets
+
 from .errors import SetupError
 
-LONG_AXIS_MM = 2000.0
-LONG_AXIS_INTERVAL_MM = 250.0
 CYCLES = ("linear", "step")
 END_JITTER = 0.02  # largest offset of the first / last target, as a fraction of the interval
 
@@ -58,16 +58,13 @@ def _irregular(anchors_lo: float, anchors_hi: float, count: int, rng: np.random.
     return out
 
 
-def linear_targets(start_mm: float, end_mm: float, *, seed: int = 0, per_metre: float = 5.0,
-                   min_targets: int = 5, jitter: float = 0.3, decimals: int = 3) -> tuple[float, ...]:
+def linear_targets(start_mm: float, end_mm: float, *, seed: int = 0, jitter: float = 0.3,
+                   decimals: int = 3) -> tuple[float, ...]:
     """Targets of a linear axis over [start_mm, end_mm] (rounded to ``decimals``, all distinct offsets)."""
     span = end_mm - start_mm
     if not (math.isfinite(span) and span > 0):
         raise SetupError(f"the axis travel must have end_mm > start_mm, got {start_mm} .. {end_mm}")
-    if span > LONG_AXIS_MM:
-        m = max(min_targets, round(span / LONG_AXIS_INTERVAL_MM) + 1)
-    else:
-        m = max(min_targets, math.ceil(per_metre * span / 1000.0 - 1e-9))
+    m = required_targets(span, "linear")
     rng = np.random.default_rng([seed, 230])
     p = span / (m - 1)
     for _ in range(100):
@@ -104,6 +101,19 @@ def rotary_targets(start_deg: float = 0.0, end_deg: float = 360.0, *, seed: int 
     if full:
         out = [x for x in out if x < end_deg - 10 ** -decimals]
     return tuple(out)
+
+
+def check_targets(targets: tuple[float, ...], axis_type: str, span: float | None = None, *,
+                  allow_nonconforming: bool = False) -> None:
+    """Refuse an explicit target list that breaks the ISO 230-2 target rule (standards.md §1.4) over
+    ``span`` (mm; default: the range of the targets); with ``allow_nonconforming`` only one that
+    cannot be evaluated at all (fewer than 2 targets)."""
+    try:
+        note = check_target_count(targets, axis_type, span)
+    except ValueError as exc:
+        raise SetupError(f"[axis] targets: {exc}") from None
+    if note and not allow_nonconforming:
+        raise SetupError(f"[axis] targets: {note}; give more targets or set allow_nonconforming_targets = true")
 
 
 def linear_cycle(targets: tuple[float, ...], runs: int, overrun: float) -> list[Stop]:

@@ -7,8 +7,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from processing.iso230_2 import LONG_AXIS_MM
+
 from .errors import SetupError
-from .iso230 import CYCLES, LONG_AXIS_MM, Stop, cycle, linear_targets, rotary_targets
+from .iso230 import CYCLES, Stop, check_targets, cycle, linear_targets, rotary_targets
 from .setup import DeviceSetup, _Table, check_devices, read_toml
 
 TRIGGERS = ("in-position", "stability", "manual")
@@ -55,7 +57,8 @@ class TriggerSetup:
 
 @dataclass(frozen=True)
 class SimulatedAxisSetup:
-    """Errors of the simulated machine axis (``--simulate``): um (linear) or arcsec (rotary)."""
+    """Errors of the simulated machine axis (``--simulate``): um (linear) or arcsec (rotary), and the
+    conditions its controller measures (air C, hPa, %RH, material C, drift C per hour of machine time)."""
 
     pitch_amplitude: float = 4.0
     pitch_wavelength: float = 700.0
@@ -65,6 +68,16 @@ class SimulatedAxisSetup:
     periodic_period: float = 10.0
     thermal_per_m_per_h: float = 4.0
     noise: float = 0.15
+    air_temp_c: float = 20.4
+    air_pressure_hpa: float = 1012.8
+    humidity_pct: float = 45.0
+    material_temp_c: float = 20.2
+    drift_c_per_h: float = 0.05
+
+    def errors(self) -> tuple[float, ...]:
+        """The error-model values (without the environment)."""
+        return (self.pitch_amplitude, self.pitch_wavelength, self.slope_per_m, self.backlash, self.periodic,
+                self.periodic_period, self.thermal_per_m_per_h, self.noise)
 
 
 @dataclass(frozen=True)
@@ -154,6 +167,7 @@ def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> 
     name = ax.get("name", str, "C" if axis_type == "rotary" else "X")
     seed = ax.get("seed", int, 0)
     explicit = ax.get(f"targets_{u}", list, None)
+    allow_nonconforming = ax.get("allow_nonconforming_targets", bool, False)
     start = ax.get(f"start_{u}", float, 0.0)
     end = ax.get(f"end_{u}", float, 360.0 if axis_type == "rotary" else None)
     long_axis = False
@@ -207,12 +221,19 @@ def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> 
     simulation = SimulatedAxisSetup(**{k: sim.get(k, float, getattr(s, k)) for k in asdict(s)})
     for t in (top, ax, tr, en, ctl, gc, sim):
         t.check_unknown()
-    return PositioningSetup(
+    setup = PositioningSetup(
         axis_name=name, axis_type=axis_type, targets=targets, runs=runs, cycle=cyc, overrun=overrun,
         feed_per_min=feed, datum=datum, trigger=trigger, environment=environment, devices=devices,
         dialect=dialect, program_number=program_number,
         max_deviation=max_dev, simulation=simulation, long_axis=long_axis, **text,
     )
+    if explicit is not None:  # generated targets follow the rule by construction
+        span = end - start if end is not None and axis_type == "linear" else None
+        try:
+            check_targets(targets, axis_type, span, allow_nonconforming=allow_nonconforming)
+        except SetupError as exc:
+            raise SetupError(f"{source}: {exc}") from None
+    return setup
 
 
 def load_positioning_setup(path: Path | str) -> PositioningSetup:

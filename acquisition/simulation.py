@@ -22,12 +22,13 @@ from pymodbus import FramerType
 from mocks.faults import FaultPlan, FaultSpecError
 from mocks.interferometer import InterferometerEmulator, ModbusServerThread, start_controller
 from mocks.keyence_lkg import KeyenceLKGEmulator
-from mocks.machine_axis import AxisErrors, InPositionRegisters, MachineAxis, MachineStop
+from mocks.machine_axis import AxisErrors, InPositionRegisters, LinearOptics, MachineAxis, MachineStop
 from mocks.me_ild1420 import ILD1420Emulator, StreamPacer
 from mocks.panasonic_hlg1 import PanasonicHLG1Emulator
 from mocks.serial_endpoints import ByteEmulator, PtyEndpoint
-from mocks.world import BlockSetup, Noise, World
+from mocks.world import BlockSetup, Environment, Noise, World
 from mocks.xymd02 import XYMD02Emulator, start_xymd02, world_source
+from processing.environment import EnvironmentSettings
 from processing.geometry import BlockGeometry, SensorSign
 
 from .errors import UserError
@@ -321,15 +322,33 @@ class SimulatedMachine:
 HANDSHAKE = {"in-position": "ack", "manual": "cycle-start", "stability": "timed"}
 
 
+def _environment(sim: SimulatedAxisSetup) -> Environment:
+    return Environment(air_temp_c=sim.air_temp_c, air_pressure_hpa=sim.air_pressure_hpa,
+                       humidity_pct=sim.humidity_pct, material_temp_c=sim.material_temp_c,
+                       drift_c_per_h=sim.drift_c_per_h)
+
+
 def _axis_errors(setup: PositioningSetup, noise: bool) -> AxisErrors:
     sim = setup.simulation
-    if setup.axis_type == "rotary" and sim == SimulatedAxisSetup():
+    if setup.axis_type == "rotary" and sim.errors() == SimulatedAxisSetup().errors():
         # rotary defaults (arcsec): a once-per-revolution error, a 90-tooth worm's periodic error
         return AxisErrors(pitch=((4.0, 360.0, 0.7),), slope_per_m=0.0, backlash=2.0, periodic=1.0,
                           periodic_period=4.0, thermal_per_m_per_h=0.0, noise=0.3 if noise else 0.0)
     return AxisErrors(pitch=((sim.pitch_amplitude, sim.pitch_wavelength, 0.4),), slope_per_m=sim.slope_per_m,
                       backlash=sim.backlash, periodic=sim.periodic, periodic_period=sim.periodic_period,
                       thermal_per_m_per_h=sim.thermal_per_m_per_h, noise=sim.noise if noise else 0.0)
+
+
+def _optics(setup: PositioningSetup) -> LinearOptics:
+    """The controller's reading model from the set-up's [environment], read the way processing reads it."""
+    try:
+        env = EnvironmentSettings.from_dict(setup.environment.to_dict())
+    except ValueError as exc:
+        raise UserError(f"[environment]: {exc}") from None
+    return LinearOptics(expansion_ppm_per_k=env.expansion_ppm_per_k,
+                        refractive_index_assumed=env.refractive_index_assumed or 1.0,
+                        wavelength_nm=env.wavelength_nm, co2_ppm=env.co2_ppm, index_equation=env.index_equation,
+                        dead_path_mm=env.dead_path_mm, readings_compensated=env.readings_compensated)
 
 
 def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bool = True,
@@ -344,7 +363,8 @@ def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bo
     stops = [MachineStop(s.position, s.target_index, s.run, s.direction) for s in setup.stops()]
     axis = MachineAxis(stops, rotary=setup.axis_type == "rotary", errors=_axis_errors(setup, noise),
                        feed_per_min=setup.feed_per_min, dwell_s=setup.trigger.dwell_s,
-                       handshake=HANDSHAKE[setup.trigger.mode], datum=setup.datum, seed=seed)
+                       handshake=HANDSHAKE[setup.trigger.mode], datum=setup.datum, seed=seed,
+                       environment=_environment(setup.simulation), optics=_optics(setup))
     emulator = InterferometerEmulator(axis, word_order=setup.devices.word_order, faults=plan,  # type: ignore[arg-type]
                                       extension=InPositionRegisters(axis, setup.devices.word_order))
     if start_at:

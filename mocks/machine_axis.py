@@ -18,12 +18,22 @@ Motion itself takes no simulated time; machine time advances by move time at
 the feed rate plus the dwell at each stop, so thermal drift depends on the
 cycle, not on how fast the test runs.  Actual position at rest::
 
-    actual = commanded + e(P, direction, t) + noise
+    X_20   = commanded + e(P, direction, t) + noise      (the axis at 20 C)
     e = pitch(P) + periodic(P) + direction-dependent backlash + thermal(P, t)
 
-The interferometer is zeroed at the datum: it reports ``actual - datum`` (mm,
-linear axes) and fills ``angle_deg`` (rotary axes, degrees) the same way.  This
-module is written from the documentation and never imports ``drivers``.
+The interferometer is zeroed at the datum.  Rotary axes: it reports
+``angle_deg = X_20 - datum`` (an angular interferometer's two beams share the air).
+Linear axes with :class:`LinearOptics` (what a real controller sees, standards.md §3.5):
+the scale is at material temperature T_m and the beam runs through air of index n₁::
+
+    X_T     = X_20 (1 + α (T_m − 20 °C))
+    reading = (X_T n₁ + D (n₁ − n₀)) / n_assumed            (raw counts, n_assumed = 1.0 in vacuum)
+    reading = X_20                                            (readings_compensated)
+
+the exact inverse of :mod:`processing.environment` (n₀: the index at the first measured
+point, D: the dead path); the controller reports ``reading - datum``.  Without optics
+it reports ``X_20 - datum`` (the true position).  This module is written from the
+documentation and never imports ``drivers``.
 """
 
 from __future__ import annotations
@@ -37,6 +47,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pymodbus.simulator import DataType, SimData
+
+from processing.air_index import DEFAULT_CO2_PPM, DEFAULT_EQUATION, HENE_WAVELENGTH_NM, air_index
 
 from .world import Capture, Environment
 
@@ -79,6 +91,38 @@ class AxisErrors:
 
 
 @dataclass(frozen=True)
+class LinearOptics:
+    """What the controller of a linear axis folds into its reading (run.json ``setup.environment``).
+
+    ``expansion_ppm_per_k``: of the axis / scale (None: no expansion simulated),
+    ``refractive_index_assumed``: the index the controller divides by (1.0 = vacuum counts),
+    ``readings_compensated``: the controller reports the axis at 20 C itself.
+    """
+
+    expansion_ppm_per_k: float | None = 11.5
+    refractive_index_assumed: float = 1.0
+    wavelength_nm: float = HENE_WAVELENGTH_NM
+    co2_ppm: float = DEFAULT_CO2_PPM
+    index_equation: str = DEFAULT_EQUATION
+    dead_path_mm: float = 0.0
+    readings_compensated: bool = False
+
+    def index(self, air_temp_c: float, air_pressure_hpa: float, humidity_pct: float) -> float:
+        """Air index n along the beam (``processing.air_index``, pressure converted to Pa)."""
+        return float(air_index(air_temp_c, air_pressure_hpa * 100.0, humidity_pct, co2_ppm=self.co2_ppm,
+                               wavelength_nm=self.wavelength_nm, equation=self.index_equation))
+
+    def reading(self, x20_mm: float, material_temp_c: float, n1: float, n0: float) -> float:
+        """Controller reading (mm) of an axis at ``x20_mm`` (at 20 C) in air of index ``n1``
+        (``n0``: the index when the dead path was last equal, at the first point)."""
+        if self.readings_compensated:
+            return x20_mm
+        alpha = self.expansion_ppm_per_k or 0.0
+        x_t = x20_mm * (1 + alpha * 1e-6 * (material_temp_c - 20.0))
+        return (x_t * n1 + self.dead_path_mm * (n1 - n0)) / self.refractive_index_assumed
+
+
+@dataclass(frozen=True)
 class MachineStop:
     position: float
     target_index: int
@@ -99,6 +143,7 @@ class MachineAxis:
     datum: float = 0.0
     seed: int = 0
     environment: Environment = field(default_factory=Environment)
+    optics: LinearOptics | None = None
 
     def __post_init__(self) -> None:
         if self.handshake not in ("ack", "cycle-start", "timed"):
@@ -118,13 +163,14 @@ class MachineAxis:
         self._arrived = 0.0
         self._at_overrun = False
         self.captured: list[tuple[int, float]] = []  # (stop index, true actual position) per capture
+        self._n0: float | None = None  # air index at the first measured point (dead path)
 
     # -- units: errors are um (linear) or arcsec (rotary) -------------------------------------
     def _unit(self, e: float) -> float:
         return e / 3600.0 if self.rotary else e * 1e-3
 
     def actual(self) -> float:
-        """True position of the axis now (mm or deg), without reading noise."""
+        """True position of the axis now (mm or deg) normalised to 20 C, without reading noise."""
         if self.index < 0:
             return self.datum
         s = self.stops[self.index]
@@ -186,10 +232,20 @@ class MachineAxis:
             actual = self.actual()
             self.captured.append((self.index, actual))
             noise = self._unit(float(self._rng.normal(0.0, self.errors.noise))) if self.errors.noise else 0.0
-            rel = actual - self._datum_actual + noise
+            rel = self._reading(actual + noise) - self._datum_actual
             self.last_angle_deg = rel if self.rotary else 0.0
             return Capture(position_mm=0.0 if self.rotary else rel, stry_um=0.0, strz_um=0.0,
                            pitch_urad=0.0, yaw_urad=0.0, roll_urad=0.0)
+
+    def _reading(self, x20: float) -> float:
+        """What the controller reports for the axis at ``x20`` (before subtracting the datum)."""
+        if self.optics is None or self.rotary:
+            return x20
+        air_t, p, rh, mat_t = self.environment_now()
+        n1 = self.optics.index(air_t, p, rh)
+        if self._n0 is None and self.index >= 0:
+            self._n0 = n1
+        return self.optics.reading(x20, mat_t, n1, n1 if self._n0 is None else self._n0)
 
     def environment_now(self) -> tuple[float, float, float, float]:
         with self._lock:

@@ -31,6 +31,18 @@ EDITIONS = ("ISO 230-2:1997", "ISO 230-2:2006", "ISO 230-2:2014")
 UNITS = {"linear": "um", "rotary": "arcsec"}
 TARGET_UNITS = {"linear": "mm", "rotary": "deg"}
 
+# ISO 230-2 target rule (standards.md §1.4): linear axes up to LONG_AXIS_MM need at least
+# MIN_TARGETS_PER_METRE per metre and MIN_TARGETS in total; longer ones about one every
+# LONG_AXIS_INTERVAL_MM; rotary axes at least MIN_TARGETS.  Below MIN_TARGETS_EVALUATED
+# there is no range of deviations (E, M, A) at all.
+MIN_TARGETS = 5
+MIN_TARGETS_PER_METRE = 5.0
+LONG_AXIS_MM = 2000.0
+LONG_AXIS_INTERVAL_MM = 250.0
+MIN_TARGETS_EVALUATED = 2
+TARGET_RULE = (f"at least {MIN_TARGETS} targets and at least {MIN_TARGETS_PER_METRE:g} per metre; "
+               f"about one every {LONG_AXIS_INTERVAL_MM:g} mm above {LONG_AXIS_MM:g} mm")
+
 # Axis-level quantities, in the order of the ISO 230-2 table.
 AXIS_QUANTITIES = ("B", "B_mean", "R_up", "R_down", "R", "E_up", "E_down", "E", "M", "A_up", "A_down", "A")
 
@@ -204,6 +216,7 @@ def iso230_2_from_arrays(
     m = targets.shape[0]
     if m == 0:
         raise ValueError("no target positions")
+    target_note = check_target_count(targets, axis_type)
     up = np.asarray(up, dtype=float).reshape(m, -1)
     down = np.asarray(down, dtype=float).reshape(m, -1)
 
@@ -248,7 +261,7 @@ def iso230_2_from_arrays(
     if not (np.all(np.isfinite(s_up)) and np.all(np.isfinite(s_dn))):
         axis["A"] = math.nan
 
-    notes: list[str] = []
+    notes: list[str] = [target_note] if target_note else []
     runs_up, runs_dn = int(n_up.max()), int(n_dn.max())
     if directions != "bidirectional":
         notes.append(f"unidirectional test ({'↑' if has_up else '↓'} only): reversal (B, B_mean), E, M and A "
@@ -289,6 +302,34 @@ def iso230_2_from_arrays(
     return Iso2302Result(axis_type=axis_type, unit=UNITS[axis_type], k=float(k), edition=edition,
                           per_target=per_target, axis=axis, vdi3441=vdi, directions=directions,
                           runs_up=runs_up, runs_down=runs_dn, notes=tuple(notes))
+
+
+def required_targets(span: float, axis_type: str = "linear") -> int:
+    """Fewest targets ISO 230-2 accepts over ``span`` (mm; rotary axes: deg, :data:`MIN_TARGETS`)."""
+    if axis_type != "linear":
+        return MIN_TARGETS
+    if span > LONG_AXIS_MM:
+        return max(MIN_TARGETS, round(span / LONG_AXIS_INTERVAL_MM) + 1)
+    return max(MIN_TARGETS, math.ceil(MIN_TARGETS_PER_METRE * span / 1000.0 - 1e-9))
+
+
+def check_target_count(targets: Any, axis_type: str = "linear", span: float | None = None) -> str | None:
+    """The ISO 230-2 target rule applied to ``targets`` (mm or deg) over ``span`` (default: their range).
+
+    Raises ValueError below :data:`MIN_TARGETS_EVALUATED` distinct targets (no E, M or A); returns
+    a note when there are fewer than :func:`required_targets`, else None.
+    """
+    t = np.unique(np.asarray(targets, dtype=float))
+    if t.size < MIN_TARGETS_EVALUATED:
+        raise ValueError(f"{t.size} target position(s): E, M and A need at least {MIN_TARGETS_EVALUATED} "
+                         f"targets (ISO 230-2 target rule: {TARGET_RULE})")
+    span = float(t.max() - t.min()) if span is None else float(span)
+    need = required_targets(span, axis_type)
+    if t.size < need:
+        over = f" over {span:g} mm" if axis_type == "linear" else ""
+        return (f"{t.size} targets{over} (at least {need} required): the test does not meet ISO 230-2's "
+                f"target rule ({TARGET_RULE})")
+    return None
 
 
 DEVIATION_COLUMNS = ("target_index", "target", "direction", "run", "deviation")

@@ -26,6 +26,7 @@ from acquisition.positioning_setup import (
 )
 from acquisition.runstore import load_run
 from drivers.readings import ControllerStatus, InterferometerReading
+from processing.air_index import air_index
 from processing.columns import POSITIONING_LINEAR, POSITIONING_ROTARY
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -193,16 +194,24 @@ def test_in_position_run_reads_the_simulated_axis_exactly(tmp_path: Path) -> Non
     pts = run.points
     assert len(pts) == 2 * 3 * len(s.targets) and list(pts.columns) == list(POSITIONING_LINEAR)
     assert set(pts["direction"]) == {1, -1} and sorted(set(pts["run"])) == [1, 2, 3]
-    truth = np.array([a for i, a in res.sim.axis.captured if i >= 0])  # i = -1: the datum  # type: ignore[union-attr]
-    np.testing.assert_allclose(pts["reading_mm"], truth, rtol=0, atol=1e-9)
+    x20 = np.array([a for i, a in res.sim.axis.captured if i >= 0])  # i = -1: the datum  # type: ignore[union-attr]
+    # what a controller counting vacuum wavelengths reads (standards.md §3.5): the axis expanded at its
+    # material temperature, times the air index of the conditions it logged with the point
+    env = run.meta["setup"]["environment"]
+    assert env["refractive_index_assumed"] == 1.0 and env["dead_path_mm"] == 0.0 and run.meta["status"] == "complete"
+    n_air = air_index(pts["air_temp_c"], pts["air_pressure_hpa"] * 100, pts["humidity_pct"], co2_ppm=env["co2_ppm"],
+                      wavelength_nm=env["wavelength_nm"])
+    expected = x20 * (1 + env["expansion_ppm_per_k"] * 1e-6 * (pts["material_temp_c"] - 20.0)) * n_air / 1.0
+    np.testing.assert_allclose(pts["reading_mm"], expected, rtol=0, atol=1e-7)  # logged as FLOAT32
+    assert (np.abs(pts["reading_mm"] - x20) > 1e-3).any()  # the air and the steel are really in the readings
     assert run.meta["axis_type"] == "linear" and run.meta["setup"]["targets_mm"] == list(s.targets)
-    assert run.meta["setup"]["environment"]["refractive_index_assumed"] == 1.0 and run.meta["status"] == "complete"
 
 
 def test_backlash_shows_as_the_reversal_value(tmp_path: Path) -> None:
     # only backlash, noise off: x_up - x_down = -backlash at every target (the axis stops short by
     # half the lost motion in the approach direction)
-    src = example(axis={"end_mm": 500.0, "runs": 2},
+    # (a controller that reports compensated readings: reading_mm is the axis at 20 C)
+    src = example(axis={"end_mm": 500.0, "runs": 2}, environment={"readings_compensated": True},
                   simulation={"pitch_amplitude": 0.0, "slope_per_m": 0.0, "periodic": 0.0,
                               "thermal_per_m_per_h": 0.0, "backlash": 3.0})
     s = positioning_setup_from_dict(src)
@@ -240,7 +249,8 @@ def test_stability_trigger_run(tmp_path: Path) -> None:
     assert res.outcome.exit_status == "success", res.outcome.reason
     pts = load_run(tmp_path / "run").points
     assert len(pts) == 2 * len(s.targets)
-    assert ((pts["reading_mm"] - pts["target_mm"]).abs() < 0.05).all()  # each captured at its own target
+    # each captured at its own target (raw readings: up to ~300 ppm of air index and expansion)
+    assert ((pts["reading_mm"] - pts["target_mm"]).abs() < 0.05 + 5e-4 * pts["target_mm"]).all()
 
 
 def test_aborted_run_resumes_where_the_machine_program_stopped(tmp_path: Path) -> None:

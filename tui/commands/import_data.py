@@ -15,7 +15,8 @@ def run_positioning(args: argparse.Namespace) -> int:
         wavelength_nm=args.wavelength_nm, co2_ppm=args.co2_ppm, expansion_ppm_per_k=args.expansion_ppm_per_k,
         dead_path_mm=args.dead_path_mm, index_equation=args.equation, axis_name=args.axis, machine=args.machine)
     try:
-        out, n = import_positioning(args.csv, args.out, opts)
+        out, n = import_positioning(args.csv, args.out, opts,
+                                    warn=lambda w: print(f"guideway: warning: {w}", file=sys.stderr))
     except ImportProblems as exc:
         for p in exc.problems[:MAX_PROBLEMS_SHOWN]:
             print(f"guideway: error: {p}", file=sys.stderr)
