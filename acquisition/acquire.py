@@ -10,8 +10,11 @@ into :func:`run_straightness`.
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import sys
 import tempfile
+from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -104,6 +107,25 @@ def _open_store(setup: StraightnessSetup | None, out: Path, resume: bool
     return store, stored, rp
 
 
+def _no_empty_run_dir(run: Callable[..., Any]) -> Callable[..., Any]:
+    """A run that fails before its first record (devices unreachable, bad set-up) leaves no
+    empty run directory behind; one that started keeps everything it wrote."""
+
+    @functools.wraps(run)
+    def wrapper(setup: Any, out: Path | str, *args: Any, **kwargs: Any) -> Any:
+        existed = Path(out).exists()
+        try:
+            return run(setup, out, *args, **kwargs)
+        except BaseException:
+            if not existed:
+                with contextlib.suppress(OSError):  # rmdir refuses a directory that holds anything
+                    Path(out).rmdir()
+            raise
+
+    return wrapper
+
+
+@_no_empty_run_dir
 def run_straightness(
     setup: StraightnessSetup | None,
     out: Path | str,
@@ -197,6 +219,7 @@ class PositioningResult:
     faults: tuple[str, ...] = ()
 
 
+@_no_empty_run_dir
 def run_positioning(
     setup: PositioningSetup | None,
     out: Path | str,

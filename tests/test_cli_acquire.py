@@ -80,6 +80,7 @@ def test_a_dropped_sensor_reply_pauses_and_the_run_recovers(tmp_path: Path, setu
 def test_acquire_errors_are_one_line(tmp_path: Path, setup_file: Path, args, fragments) -> None:
     argv = [a.format(tmp=tmp_path, setup=setup_file) for a in args]
     one_line_error(guideway("acquire", "straightness", *argv), *fragments)
+    assert not (tmp_path / "r").exists()  # a run that never started leaves no empty directory
 
 
 def test_positioning_gcode_and_simulated_run(tmp_path: Path) -> None:
