@@ -14,7 +14,7 @@ import contextlib
 import functools
 import sys
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from contextlib import ExitStack
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -42,13 +42,40 @@ from .simulation import (
 )
 
 
-def _simulated_transmitter(url: str, environment: Any, stream: TextIO) -> SimulatedTransmitter | None:
-    """A simulated XY-MD02 when the set-up names a transmitter, reading the simulation's environment."""
+def _simulated_transmitter(url: str, environment: Any, stream: TextIO,
+                           cleanup: ExitStack) -> SimulatedTransmitter | None:
+    """A simulated XY-MD02 when the set-up names a transmitter, reading the simulation's environment;
+    closed with ``cleanup``."""
     if not url:
         return None
     transmitter = start_simulated_transmitter(environment)
+    cleanup.callback(transmitter.close)
     print(f"simulated transmitter: XY-MD02 on {transmitter.url} (the set-up names {url})", file=stream)
     return transmitter
+
+
+@contextlib.contextmanager
+def _closed_on_error(cleanup: ExitStack) -> Iterator[None]:
+    """Close what ``cleanup`` holds if starting the simulation fails half way."""
+    try:
+        yield
+    except BaseException:
+        cleanup.close()
+        raise
+
+
+def _record_devices(store: RunStore, rig: Any, simulate: SimOptions | None, *, resumed: bool) -> None:
+    """run.json ``instruments`` (and ``simulation``) of a new run; a resumed run keeps its own."""
+    if resumed:
+        return
+    store.header["instruments"] = rig.instruments()
+    if simulate is not None:
+        store.header["simulation"] = simulate.to_dict()
+
+
+def _print_outcome(outcome: RunOutcome, store: RunStore, out: Path, stream: TextIO) -> None:
+    print(f"run {outcome.exit_status}: {store.points_written} points in {out}"
+          + (f" ({outcome.reason})" if outcome.reason else ""), file=stream)
 
 
 @dataclass(frozen=True)
@@ -147,22 +174,19 @@ def run_straightness(
         stored = store.meta["simulation"]  # the same simulated world the run started with
         simulate = SimOptions(int(stored["seed"]), bool(stored["noise"]), simulate.faults, simulate.wire_time)
     sim = None
-    transmitter: SimulatedTransmitter | None = None
-    cleanup = ExitStack()
+    cleanup = ExitStack()  # simulated devices and their link directory, closed when the run ends
     if simulate is not None:
-        # the sensor is opened through a stable symlink (like a udev name), so a ``close`` fault that
-        # re-creates the pty is reconnected by re-opening the same name; removed when the run ends
-        link_dir = cleanup.enter_context(tempfile.TemporaryDirectory(prefix="guideway-sim-"))
-        # the family the set-up names, at the set-up's line rate if it gives one, else the family's own
-        try:
+        with _closed_on_error(cleanup):
+            # the sensor is opened through a stable symlink (like a udev name), so a ``close`` fault that
+            # re-creates the pty is reconnected by re-opening the same name; removed when the run ends
+            link_dir = cleanup.enter_context(tempfile.TemporaryDirectory(prefix="guideway-sim-"))
+            # the family the set-up names, at the set-up's line rate if it gives one, else the family's own
             sim = start_simulated_rig(seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
                                       sensor=setup.devices.sensor_protocol, baudrate=setup.devices.sensor_baud,
                                       block_length_mm=setup.block_length_mm, geometry=setup.geometry,
                                       wire_time=simulate.wire_time, sensor_link=Path(link_dir) / "sensor")
-        except BaseException:
-            cleanup.close()
-            raise
-        transmitter = _simulated_transmitter(setup.devices.environment_url, sim.world, stream)
+            cleanup.callback(sim.close)
+            transmitter = _simulated_transmitter(setup.devices.environment_url, sim.world, stream, cleanup)
         devices = DeviceSetup(sim.sensor_protocol, sim.sensor_url, sim.sensor_baudrate, sim.controller_url,
                               setup.devices.word_order, transmitter.url if transmitter is not None else "")
         print(f"simulated sensor     : {sim.sensor_protocol} on {sim.sensor_url} (pty {sim.sensor_path()})",
@@ -184,10 +208,7 @@ def run_straightness(
                        baudrate=devices.sensor_baud, word_order=devices.word_order,
                        environment_url=devices.environment_url or None)
         try:
-            if rp is None:
-                store.header["instruments"] = rig.instruments()
-                if simulate is not None:
-                    store.header["simulation"] = simulate.to_dict()
+            _record_devices(store, rig, simulate, resumed=rp is not None)
             actions = {"place_block": sim.place_block} if sim is not None else {}
             operator = _operator(operator, actions, auto, stdin, stream)
             def show(p: int, k: int, h: float) -> None:
@@ -200,13 +221,8 @@ def run_straightness(
         finally:
             rig.close()
     finally:
-        if transmitter is not None:
-            transmitter.close()
-        if sim is not None:
-            sim.close()
         cleanup.close()
-    print(f"run {outcome.exit_status}: {store.points_written} points in {out}"
-          + (f" ({outcome.reason})" if outcome.reason else ""), file=stream)
+    _print_outcome(outcome, store, out, stream)
     return AcquireResult(out, outcome, setup, sim, tuple(engine.faults), live)
 
 
@@ -258,25 +274,25 @@ def run_positioning(
         stored = store.meta["simulation"]
         simulate = SimOptions(int(stored["seed"]), bool(stored["noise"]), simulate.faults)
     sim = None
-    transmitter: SimulatedTransmitter | None = None
+    cleanup = ExitStack()  # simulated devices, closed when the run ends
     url = setup.devices.controller_url
     environment_url = setup.devices.environment_url
     if simulate is not None:
-        sim = start_simulated_machine(setup, seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
-                                      start_at=rp.next_index if rp is not None else 0)
-        url = sim.controller_url
-        print(f"simulated machine axis {setup.axis_name} ({setup.trigger.mode} trigger) behind {url}", file=stream)
-        transmitter = _simulated_transmitter(environment_url, sim.axis, stream)
-        environment_url = transmitter.url if transmitter is not None else ""
+        with _closed_on_error(cleanup):
+            sim = start_simulated_machine(setup, seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
+                                          start_at=rp.next_index if rp is not None else 0)
+            cleanup.callback(sim.close)
+            url = sim.controller_url
+            print(f"simulated machine axis {setup.axis_name} ({setup.trigger.mode} trigger) behind {url}",
+                  file=stream)
+            transmitter = _simulated_transmitter(environment_url, sim.axis, stream, cleanup)
+            environment_url = transmitter.url if transmitter is not None else ""
     elif not url:
         raise SetupError("[controller] url is missing in the setup; give the controller's address or use --simulate")
     try:
         rig = open_controller_rig(url, word_order=setup.devices.word_order, environment_url=environment_url or None)
         try:
-            if rp is None:
-                store.header["instruments"] = rig.instruments()
-                if simulate is not None:
-                    store.header["simulation"] = simulate.to_dict()
+            _record_devices(store, rig, simulate, resumed=rp is not None)
             actions = {"cycle_start": sim.cycle_start} if sim is not None else {}
             operator = _operator(operator, actions, auto, stdin, stream)
             engine = RunEngine(rig, operator, (store,))
@@ -284,10 +300,6 @@ def run_positioning(
         finally:
             rig.close()
     finally:
-        if transmitter is not None:
-            transmitter.close()
-        if sim is not None:
-            sim.close()
-    print(f"run {outcome.exit_status}: {store.points_written} points in {out}"
-          + (f" ({outcome.reason})" if outcome.reason else ""), file=stream)
+        cleanup.close()
+    _print_outcome(outcome, store, out, stream)
     return PositioningResult(out, outcome, setup, sim, tuple(engine.faults))
