@@ -1,5 +1,8 @@
 """The command line: one JSON object with --json, one-line errors with exit
-code 2, and a run killed with SIGKILL mid-capture stays processable."""
+code 2, and a run killed with SIGKILL mid-capture stays processable.
+
+Commands run in this process (``tests.cli.guideway``); only the killed run is a
+separate process (being killed is the point)."""
 
 from __future__ import annotations
 
@@ -7,7 +10,6 @@ import json
 import os
 import signal
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -15,14 +17,8 @@ import pytest
 from acquisition.runstore import load_run
 from tui.cli import main
 
-from .waiting import wait_for
-
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def guideway(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "tui.cli", *args], cwd=ROOT, capture_output=True,
-                          text=True, timeout=timeout)
+from .cli import guideway, one_line_error, spawn
+from .waiting import line_count, wait_for
 
 
 @pytest.fixture(scope="module")
@@ -43,15 +39,6 @@ def test_process_json_prints_exactly_one_object(demo_run: Path) -> None:
     assert obj["profile"][0] == {"station": 0, "x_mm": 0.0, "height_um": 0.0}
     assert set(obj["straightness_um"]) >= {"endpoint", "least_squares"}
     assert obj["straightness_um"]["endpoint"] > 0
-
-
-def one_line_error(res: subprocess.CompletedProcess[str], *fragments: str) -> None:
-    assert res.returncode == 2
-    lines = [ln for ln in res.stderr.splitlines() if ln.startswith("guideway: error:")]
-    assert len(lines) == 1, res.stderr
-    assert "Traceback" not in res.stderr
-    for frag in fragments:
-        assert frag in lines[0]
 
 
 def test_missing_run_directory(tmp_path: Path) -> None:
@@ -81,12 +68,12 @@ def test_demo_refuses_non_empty_out(tmp_path: Path, capsys: pytest.CaptureFixtur
 
 def test_killed_run_keeps_every_written_point(tmp_path: Path) -> None:
     out = tmp_path / "run"
-    proc = subprocess.Popen([sys.executable, "-m", "tui.cli", "demo", "--out", str(out), "--stations", "500",
-                             "--samples", "1"], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    # the killed process's temporary files (the sensor link) go to a TMPDIR this test owns
+    proc = spawn("demo", "--out", out, "--stations", "500", "--samples", "1", tmp_dir=tmp_path / "tmp",
+                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     points = out / "points.csv"
     try:
-        wait_for(lambda: points.exists() and len(points.read_text().splitlines()) > 8,
-                 timeout_s=60, what="the demo to write points")
+        wait_for(lambda: line_count(points) > 8, timeout_s=60, what="the demo to write points")
     finally:
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait()

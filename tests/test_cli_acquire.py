@@ -1,40 +1,16 @@
 """`guideway acquire straightness`: the plain-terminal operator end to end,
-abort then resume, a recovered device fault, and one-line errors."""
+abort then resume, a recovered device fault, and one-line errors (in this
+process: ``tests.cli.guideway``; ``setup_file`` is in conftest.py)."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from acquisition.runstore import load_run
 
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def guideway(*args: str, stdin: str = "", timeout: float = 90) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "tui.cli", *args], cwd=ROOT, capture_output=True,
-                          text=True, input=stdin, timeout=timeout)
-
-
-@pytest.fixture
-def setup_file(tmp_path: Path) -> Path:
-    text = (ROOT / "docs" / "setup-straightness.toml").read_text()
-    text = text.replace("stations = 20 ", "stations = 6 ").replace("enabled = true", "enabled = false")
-    text = text.replace("samples_per_reading = 5", "samples_per_reading = 2")
-    path = tmp_path / "setup.toml"
-    path.write_text(text)
-    return path
-
-
-def one_line_error(res: subprocess.CompletedProcess[str], *fragments: str) -> None:
-    assert res.returncode == 2, res.stderr
-    errors = [ln for ln in res.stderr.splitlines() if ln.startswith("guideway: error:")]
-    assert len(errors) == 1 and "Traceback" not in res.stderr, res.stderr
-    for frag in fragments:
-        assert frag in errors[0]
+from .cli import ROOT, guideway, one_line_error
 
 
 def test_terminal_operator_skip_abort_then_resume(tmp_path: Path, setup_file: Path) -> None:

@@ -4,13 +4,15 @@ positioning run, air-index --json; bad input gives line-numbered errors and exit
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 from tui.cli import main
 
-from .test_cli import guideway, one_line_error
+from .cli import ROOT, guideway, one_line_error
 
 CSV = """run,direction,target_mm,reading_mm,air_temp_c,air_pressure_hpa,humidity_pct,material_temp_c
 1,+1,0,0.0,20,1013.25,50,20.5
@@ -74,9 +76,17 @@ def test_air_index_json(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_air_index_subprocess_prints_one_object() -> None:
-    res = guideway("air-index", "--t-c", "20", "--p-pa", "101325", "--rh", "50", "--json")
+    # The installed console script (pyproject [project.scripts]) as a separate process: the one smoke
+    # test of the entry point and of the exit code reaching the shell; every other test runs main().
+    script = Path(sys.executable).with_name("guideway")
+    assert script.is_file(), f"no console script {script}: install the tool (pip install -e .)"
+    res = subprocess.run([script, "air-index", "--t-c", "20", "--p-pa", "101325", "--rh", "50", "--json"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert res.returncode == 0, res.stderr
     assert isinstance(json.loads(res.stdout)["n"], float)
+    res = subprocess.run([script, "air-index", "--t-c", "20", "--p-pa", "1013.25", "--rh", "50"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=60)
+    one_line_error(res, "--p-pa", "outside the range")
 
 
 def test_air_index_out_of_range() -> None:

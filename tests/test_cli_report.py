@@ -10,14 +10,14 @@ import pytest
 from tui.cli import main
 
 from .acquisition.html_report import assert_self_contained
-from .test_cli import guideway
+from .cli import guideway, one_line_error
 
 V1_RUN = Path(__file__).resolve().parent / "data" / "runs" / "v1-straightness"
 
 
 def test_report_default_and_out(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     run = Path(shutil.copytree(V1_RUN, tmp_path / "run"))
-    res = guideway("report", str(run), "--mc-trials", "0")  # the real entry point, once
+    res = guideway("report", str(run), "--mc-trials", "0")  # the whole command line, stdout included
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip() == f"report written to {run / 'results' / 'report.html'}"
     out = tmp_path / "printed" / "axis-x.html"
@@ -28,23 +28,14 @@ def test_report_default_and_out(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert "patent formula" in doc and f"guideway report {run} --out {out} --method patent --mc-trials 0" in doc
 
 
-def one_line_error(capsys: pytest.CaptureFixture[str], argv: list[str], *fragments: str) -> None:
-    assert main(argv) == 2
-    err = capsys.readouterr().err
-    lines = [ln for ln in err.splitlines() if ln.startswith("guideway: error:")]
-    assert len(lines) == 1 and "Traceback" not in err, err
-    for frag in fragments:
-        assert frag in lines[0]
-
-
 def test_report_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    one_line_error(capsys, ["report", str(tmp_path / "nope")], "no such run directory")
+    one_line_error(guideway("report", str(tmp_path / "nope")), "no such run directory")
     run = Path(shutil.copytree(V1_RUN, tmp_path / "run"))
-    one_line_error(capsys, ["report", str(run), "--out", str(tmp_path)], "is a directory")
-    one_line_error(capsys, ["report", str(run), "--mc-trials", "1"], "--mc-trials")
+    one_line_error(guideway("report", str(run), "--out", str(tmp_path)), "is a directory")
+    one_line_error(guideway("report", str(run), "--mc-trials", "1"), "--mc-trials")
     csv = tmp_path / "pos.csv"
     csv.write_text("run,direction,target_mm,reading_mm\n1,+1,0,0\n1,+1,10,10.001\n1,-1,10,10.002\n1,-1,0,0.001\n")
     pos = tmp_path / "pos"
     assert main(["import", "positioning", str(csv), "--out", str(pos), "--compensated"]) == 0
-    one_line_error(capsys, ["report", str(pos), "--method", "exact"], "--method", "positioning run")
+    one_line_error(guideway("report", str(pos), "--method", "exact"), "--method", "positioning run")
     assert not (pos / "results" / "report.html").exists()

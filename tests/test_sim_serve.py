@@ -1,15 +1,14 @@
 """``guideway sim serve`` as a person uses it: a separate process printing its
 endpoints, real drivers talking to both devices, ``station N`` on stdin moving
-the block, SIGINT ending it cleanly with exit code 0."""
+the block, SIGINT ending it cleanly with exit code 0.  (A server runs until a
+signal ends it: the separate process is the point.  Bad arguments fail before
+anything runs, in this process.)"""
 
 from __future__ import annotations
 
-import queue
 import signal
 import socket
 import subprocess
-import sys
-import threading
 from pathlib import Path
 
 import pytest
@@ -17,29 +16,20 @@ import pytest
 from acquisition.rig import open_controller, open_sensor
 from mocks.world import BlockSetup
 
-from .test_cli import guideway, one_line_error
-
-ROOT = Path(__file__).resolve().parents[1]
+from .cli import LineReader, guideway, interrupt, one_line_error, spawn
 
 
 class Served:
     """A running ``guideway sim serve`` with its stdout read line by line."""
 
-    def __init__(self, *args: str) -> None:
-        self.proc = subprocess.Popen([sys.executable, "-m", "tui.cli", "sim", "serve", *args], cwd=ROOT,
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                     text=True, bufsize=1)
-        self.lines: queue.Queue[str] = queue.Queue()
-        self._pump_thread = threading.Thread(target=self._pump, daemon=True)
-        self._pump_thread.start()
-
-    def _pump(self) -> None:
+    def __init__(self, tmp_dir: Path, *args: str) -> None:
+        self.proc = spawn("sim", "serve", *args, tmp_dir=tmp_dir, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, bufsize=1)
         assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            self.lines.put(line.rstrip("\n"))
+        self.lines = LineReader(self.proc.stdout)
 
     def next_line(self) -> str:
-        return self.lines.get(timeout=30)
+        return self.lines.next_line(30, what="a line from guideway sim serve")
 
     def endpoints(self) -> dict[str, str]:
         found = {}
@@ -55,8 +45,7 @@ class Served:
         return self.next_line()
 
     def interrupt(self) -> tuple[int, str]:
-        self.proc.send_signal(signal.SIGINT)
-        code = self.proc.wait(timeout=30)
+        code = interrupt(self.proc, signal.SIGINT)
         assert self.proc.stderr is not None
         return code, self.proc.stderr.read()
 
@@ -65,14 +54,14 @@ class Served:
         if self.proc.poll() is None:
             self.proc.kill()
             self.proc.wait()
-        self._pump_thread.join(timeout=10)  # ends at end of file
+        self.lines.join(timeout_s=10)  # ends at end of file
         for pipe in (self.proc.stdin, self.proc.stdout, self.proc.stderr):
             if pipe is not None:
                 pipe.close()
 
 
-def test_serve_drive_both_devices_then_sigint_exits_0() -> None:
-    served = Served("--no-noise", "--seed", "2")
+def test_serve_drive_both_devices_then_sigint_exits_0(tmp_path: Path) -> None:
+    served = Served(tmp_path / "tmp", "--no-noise", "--seed", "2")
     try:
         ep = served.endpoints()
         sensor_spec, baud = ep["sensor"].split()[:2]
@@ -103,8 +92,8 @@ def test_serve_drive_both_devices_then_sigint_exits_0() -> None:
 
 
 @pytest.mark.parametrize(("sensor", "baudrate"), [("panasonic-hlg1", 115200), ("me-ild1420", 921600)])
-def test_serve_other_sensor_families(sensor: str, baudrate: int) -> None:
-    served = Served("--no-noise", "--sensor", sensor)
+def test_serve_other_sensor_families(tmp_path: Path, sensor: str, baudrate: int) -> None:
+    served = Served(tmp_path / "tmp", "--no-noise", "--sensor", sensor)
     try:
         sensor_spec, baud = served.endpoints()["sensor"].split()[:2]
         protocol, _, url = sensor_spec.partition(":")
@@ -128,8 +117,8 @@ def test_serve_other_sensor_families(sensor: str, baudrate: int) -> None:
 
 @pytest.mark.parametrize(("args", "prefix"), [(("--modbus-rtu",), "modbus-rtu:socket://127.0.0.1:"),
                                               (("--modbus", "rtu"), "modbus-rtu:/dev/pts/")])
-def test_serve_modbus_rtu_framing(args: tuple[str, ...], prefix: str) -> None:
-    served = Served(*args)
+def test_serve_modbus_rtu_framing(tmp_path: Path, args: tuple[str, ...], prefix: str) -> None:
+    served = Served(tmp_path / "tmp", *args)
     try:
         url = served.endpoints()["controller"]
         assert url.startswith(prefix)
@@ -138,9 +127,7 @@ def test_serve_modbus_rtu_framing(args: tuple[str, ...], prefix: str) -> None:
             assert controller.trigger_and_read().ok
         finally:
             controller.close()
-        proc = served.proc
-        proc.send_signal(signal.SIGTERM)
-        assert proc.wait(timeout=30) == 0
+        assert interrupt(served.proc, signal.SIGTERM) == 0
     finally:
         served.kill()
 
@@ -155,6 +142,9 @@ def test_bad_arguments_one_line_exit_2(args: tuple[str, ...], fragment: str) -> 
 
 
 def test_modbus_port_in_use_one_line_exit_2() -> None:
+    handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
     with socket.create_server(("127.0.0.1", 0)) as busy:
         port = busy.getsockname()[1]
         one_line_error(guideway("sim", "serve", "--modbus-port", str(port)), f"port {port}", "--modbus-port")
+    # a server that never ran leaves Ctrl-C and SIGTERM as they were
+    assert {sig: signal.getsignal(sig) for sig in handlers} == handlers

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 
 def wait_for(condition: Callable[[], bool], *, timeout_s: float = 30.0, interval_s: float = 0.02,
@@ -14,3 +15,11 @@ def wait_for(condition: Callable[[], bool], *, timeout_s: float = 30.0, interval
         if time.monotonic() > deadline:
             raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
         time.sleep(interval_s)
+
+
+def line_count(path: Path) -> int:
+    """Complete lines in a file being written (0 while it does not exist yet), for ``wait_for``."""
+    try:
+        return path.read_text().count("\n")
+    except FileNotFoundError:
+        return 0

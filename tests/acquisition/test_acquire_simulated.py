@@ -11,7 +11,6 @@ import os
 import random
 import signal
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -28,9 +27,10 @@ from acquisition.runstore import RunStore, load_run
 from acquisition.simulation import start_simulated_rig
 from mocks.interferometer import InterferometerEmulator, ModbusServerThread
 
-from ..waiting import wait_for
+from ..cli import guideway, spawn
+from ..setups import straightness_setup_text
+from ..waiting import line_count, wait_for
 
-ROOT = Path(__file__).resolve().parents[2]
 MEASURED = ["station", "pass", "x_mm", "lin_um", "stry_um", "strz_um", "pitch_urad", "yaw_urad", "roll_urad",
             "sensor_mm"]
 
@@ -94,50 +94,43 @@ def test_controller_lost_mid_run_pauses_and_continues_after_reconnection(tmp_pat
     assert len(run.meta["faults"]) == 1
 
 
-def guideway(*args: str, **kw) -> subprocess.Popen[str]:
-    return subprocess.Popen([sys.executable, "-m", "tui.cli", *args], cwd=ROOT, text=True,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, **kw)
+KILLED_STATIONS = 30  # with the return pass: 60 steps, so a kill can land in either pass
+KILLED_COMMON = ["--simulate", "--auto", "--no-noise", "--seed", "5"]
 
 
-def write_setup(path: Path, stations: int) -> Path:
-    text = (ROOT / "docs" / "setup-straightness.toml").read_text()
-    text = text.replace("stations = 20 ", f"stations = {stations} ").replace("enabled = true", "enabled = false")
-    text = text.replace("return_pass = false", "return_pass = true")
-    path.write_text(text)
-    return path
-
-
-def lines(path: Path) -> int:
-    try:
-        return path.read_text().count("\n")
-    except FileNotFoundError:
-        return 0
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The set-up of the killed runs, and the run it gives when never interrupted (the same for every kill)."""
+    base = tmp_path_factory.mktemp("uninterrupted")
+    setup = base / "setup.toml"
+    setup.write_text(straightness_setup_text(stations=KILLED_STATIONS, return_pass=True))
+    ref = guideway("acquire", "straightness", "--setup", setup, "--out", base / "ref", *KILLED_COMMON)
+    assert ref.returncode == 0, ref.stderr
+    return setup, base / "ref"
 
 
 @pytest.mark.parametrize("seed", [11, 29, 4])
-def test_sigkill_then_resume_gives_the_uninterrupted_points(tmp_path: Path, seed: int) -> None:
-    stations = 30  # with the return pass: 60 steps, so a kill can land in either pass
+def test_sigkill_then_resume_gives_the_uninterrupted_points(tmp_path: Path, seed: int,
+                                                            uninterrupted: tuple[Path, Path]) -> None:
+    stations = KILLED_STATIONS
     steps = 2 * stations
-    setup = write_setup(tmp_path / "setup.toml", stations)
-    common = ["--simulate", "--auto", "--no-noise", "--seed", "5"]
-    ref = guideway("acquire", "straightness", "--setup", str(setup), "--out", str(tmp_path / "ref"), *common)
+    setup, ref_dir = uninterrupted
+    common = KILLED_COMMON
     killed_dir = tmp_path / "killed"
-    proc = guideway("acquire", "straightness", "--setup", str(setup), "--out", str(killed_dir), *common)
+    # a separate process, to be killed; its temporary files (the sensor link) go to a TMPDIR this test owns
+    proc = spawn("acquire", "straightness", "--setup", setup, "--out", killed_dir, *common, tmp_dir=tmp_path / "tmp",
+                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     kill_after = random.Random(seed).randrange(2, steps - 25)  # points on disk before the kill
     try:
-        wait_for(lambda: lines(killed_dir / "points.csv") > kill_after, timeout_s=60, what="points")
+        wait_for(lambda: line_count(killed_dir / "points.csv") > kill_after, timeout_s=60, what="points")
     finally:
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait()
-    assert ref.wait(timeout=90) == 0, ref.stderr.read() if ref.stderr else ""
-    ref.stderr.close()  # type: ignore[union-attr]
-    proc.stderr.close()  # type: ignore[union-attr]
     partial = load_run(killed_dir)
     assert partial.meta["status"] == "in-progress" and len(partial.points) < steps
-    res = subprocess.run([sys.executable, "-m", "tui.cli", "acquire", "straightness", "--out", str(killed_dir),
-                          "--resume", *common], cwd=ROOT, capture_output=True, text=True, timeout=90)
+    res = guideway("acquire", "straightness", "--out", killed_dir, "--resume", *common)
     assert res.returncode == 0, res.stderr
-    resumed, reference = load_run(killed_dir), load_run(tmp_path / "ref")
+    resumed, reference = load_run(killed_dir), load_run(ref_dir)
     assert resumed.meta["status"] == "complete" and resumed.meta["uid"] == partial.meta["uid"]
     assert resumed.meta["resumed"][0]["points"] == len(partial.points)
     assert resumed.points["station"].tolist() == list(range(stations)) + list(range(stations - 1, -1, -1))

@@ -1,14 +1,13 @@
 """``guideway devices probe`` against emulators started here (sensor on a pty,
 controller on Modbus TCP): identity, readings with units and status, device
-errors shown as readings, and one-line exit-2 failures."""
+errors shown as readings, and one-line exit-2 failures.  In this process, but
+``--follow`` ended by Ctrl-C (the signal is the point)."""
 
 from __future__ import annotations
 
 import contextlib
-import signal
 import socket
 import subprocess
-import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -18,9 +17,7 @@ import pytest
 from acquisition.simulation import start_simulated_rig
 from tui.cli import main
 
-from ..test_cli import one_line_error
-
-ROOT = Path(__file__).resolve().parents[2]
+from ..cli import LineReader, guideway, interrupt, one_line_error, spawn
 
 
 def probe(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, list[str], str]:
@@ -69,9 +66,7 @@ def test_controller_error_is_shown_as_a_reading(sim_rig, capsys: pytest.CaptureF
 def test_sensor_answering_garbage_exits_2_one_line() -> None:
     rig = start_simulated_rig(seed=1, noise=False, faults="sensor:garbage@1")
     try:
-        res = subprocess.run([sys.executable, "-m", "tui.cli", "devices", "probe", "--sensor",
-                              f"keyence-lkg:{rig.sensor_url}"], cwd=ROOT, capture_output=True, text=True,
-                             timeout=60)
+        res = guideway("devices", "probe", "--sensor", f"keyence-lkg:{rig.sensor_url}")
     finally:
         rig.close()
     one_line_error(res, f"sensor keyence-lkg:{rig.sensor_url} did not answer properly")
@@ -92,28 +87,40 @@ def test_sensor_that_hangs_up_exits_2(capsys: pytest.CaptureFixture[str]) -> Non
     [((), "nothing to probe"),
      (("--sensor", "/dev/ttyUSB0"), "must be PROTOCOL:URL"),
      (("--sensor", "acme-laser:/dev/ttyUSB0"), "unknown sensor protocol 'acme-laser'"),
-     (("--controller", "modbus-tcp://127.0.0.1:1"),
-      "cannot connect to controller at modbus-tcp://127.0.0.1:1: no Modbus answer from 127.0.0.1:1 within 1.0 s "
-      "/ connection refused; check the controller address"),
+     (("--controller", "modbus-tcp://127.0.0.1:{port}"),
+      "cannot connect to controller at modbus-tcp://127.0.0.1:{port}: no Modbus answer from 127.0.0.1:{port} "
+      "within 1.0 s / connection refused; check the controller address"),
      (("--controller", "http://x"), "must start with modbus-tcp://")],
 )
-def test_bad_or_unreachable_devices_exit_2(capsys: pytest.CaptureFixture[str], args, fragment: str) -> None:
+def test_bad_or_unreachable_devices_exit_2(capsys: pytest.CaptureFixture[str], refused_port: int, args,
+                                           fragment: str) -> None:
+    args = [a.format(port=refused_port) for a in args]
+    fragment = fragment.format(port=refused_port)
     code, _, err = probe(capsys, *args)
     assert code == 2
     assert err.startswith("guideway: error:") and err.count("\n") == 1 and fragment in err
 
 
-def test_follow_runs_until_ctrl_c(sim_rig) -> None:
-    proc = subprocess.Popen([sys.executable, "-m", "tui.cli", "devices", "probe", "--follow", "--interval", "0.01",
-                             "--sensor", f"keyence-lkg:{sim_rig.sensor_url}"], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+@pytest.mark.parametrize("sigint_ignored", [False, True], ids=["sigint-default", "sigint-ignored"])
+def test_follow_runs_until_ctrl_c(sim_rig, tmp_path: Path, sigint_ignored: bool) -> None:
+    # A process started with SIGINT ignored (a background job of a non-interactive shell: how this test
+    # once hung) still ends on Ctrl-C: --follow takes SIGINT back before it prints its first line, so
+    # the signal, sent once five readings are out, cannot come too early.  Every wait is bounded.
+    proc = spawn("devices", "probe", "--follow", "--interval", "0.01", "--sensor", f"keyence-lkg:{sim_rig.sensor_url}",
+                 tmp_dir=tmp_path / "tmp", sigint_ignored=sigint_ignored, stdout=subprocess.PIPE,
+                 stderr=subprocess.PIPE)
     with proc:
-        assert proc.stdout is not None
-        seen = [proc.stdout.readline() for _ in range(6)]  # identity + five readings
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=30)
+        assert proc.stdout is not None and proc.stderr is not None
+        try:
+            lines = LineReader(proc.stdout)
+            seen = [lines.next_line(30, what="the probe's identity and five readings") for _ in range(6)]
+            code = interrupt(proc)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+        err = proc.stderr.read()
     assert seen[5].startswith("#5 sensor:")
-    assert proc.returncode == 0 and "Traceback" not in err
+    assert code == 0 and "Traceback" not in err
 
 
 def test_a_sensor_of_another_family_is_not_given_a_model(capsys: pytest.CaptureFixture[str]) -> None:
@@ -139,16 +146,18 @@ def hang_up_port() -> Iterator[int]:
                 conn, _ = listener.accept()
                 conn.close()
 
+    port = listener.getsockname()[1]
     thread = threading.Thread(target=serve, daemon=True)
     thread.start()
     try:
-        yield listener.getsockname()[1]
+        yield port
     finally:
         stop.set()
-        listener.close()
-        with contextlib.suppress(OSError):  # wake the accept() if it still waits
-            socket.create_connection(("127.0.0.1", listener.getsockname()[1]), timeout=0.5).close()
+        # wake the accept() with one last connection while the listener is still open; the loop then ends
+        socket.create_connection(("127.0.0.1", port), timeout=5).close()
         thread.join(timeout=5)
+        listener.close()
+        assert not thread.is_alive(), "the hang-up listener's thread did not end"
 
 
 def test_a_port_that_hangs_up_is_no_modbus_answer_one_line(hang_up_port: int,

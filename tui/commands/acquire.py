@@ -45,11 +45,12 @@ def run(args: argparse.Namespace) -> int:
     source = read_toml(args.setup) if args.setup is not None else None
     if args.kind == "straightness":
         setup = straightness_setup_from_dict(source, str(args.setup)) if source is not None else None
-        res = run_straightness(setup, args.out, simulate=sim, auto=args.auto, resume=resume)
+        res = run_straightness(setup, args.out, simulate=sim, auto=args.auto, resume=resume,
+                               stream=sys.stdout, stdin=sys.stdin)  # this call's streams, not import time's
     else:
         psetup = positioning_setup_from_dict(source, str(args.setup)) if source is not None else None
         res = run_positioning(psetup, args.out, simulate=sim, auto=args.auto, resume=resume,  # type: ignore[assignment]
-                              setup_source=source)
+                              setup_source=source, stream=sys.stdout, stdin=sys.stdin)
     status = res.outcome.exit_status
     if status == "fail":
         raise UserError(f"run failed ({res.outcome.reason}); the points captured are in {args.out}; "

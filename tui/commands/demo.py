@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 
@@ -10,7 +11,7 @@ def run(args: argparse.Namespace) -> int:
     from acquisition.demo import run_demo
 
     run_demo(args.out, stations=args.stations, seed=args.seed, noise=not args.no_noise,
-             samples=args.samples, faults=args.faults, sensor=args.sensor)
+             samples=args.samples, faults=args.faults, sensor=args.sensor, stream=sys.stdout)
     return 0
 
 

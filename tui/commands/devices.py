@@ -9,8 +9,29 @@ when the devices answered, 2 with a one-line reason when not.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import itertools
+import signal
+import threading
 import time
+from collections.abc import Iterator
+
+
+@contextlib.contextmanager
+def _ctrl_c_raises() -> Iterator[None]:
+    """Ctrl-C (SIGINT) raises KeyboardInterrupt while the block runs, whatever the process inherited.
+
+    ``--follow`` ends only on Ctrl-C; a process started with SIGINT ignored (a background job of a
+    non-interactive shell, and its children) keeps it ignored in Python, and would never end.
+    """
+    if threading.current_thread() is not threading.main_thread():  # only the main thread may set handlers
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def probe(args: argparse.Namespace) -> int:
@@ -19,7 +40,9 @@ def probe(args: argparse.Namespace) -> int:
 
     if args.count < 1:
         raise UserError(f"--count must be at least 1 (got {args.count})")
-    with open_probe(args.sensor, args.controller, baudrate=args.baud, environment=args.environment) as p:
+    # with --follow, Ctrl-C works from before the first line printed to the end
+    with _ctrl_c_raises() if args.follow else contextlib.nullcontext(), \
+            open_probe(args.sensor, args.controller, baudrate=args.baud, environment=args.environment) as p:
         for line in p.identity_lines():
             print(line, flush=True)
         indices = itertools.count(1) if args.follow else range(1, args.count + 1)

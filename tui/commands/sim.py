@@ -36,13 +36,15 @@ def serve(args: argparse.Namespace) -> int:
     sensor_emulator(args.sensor)  # bad names / specs fail before anything starts
     parse_faults(args.faults)
     stop = threading.Event()
-    previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
+    previous = {}
     with tempfile.TemporaryDirectory(prefix="guideway-sim-") as tmp:
         rig = start_simulated_rig(seed=args.seed, noise=not args.no_noise, sensor=args.sensor,
                                   faults=args.faults, modbus_port=args.modbus_port,
                                   controller=args.modbus,
                                   sensor_link=Path(tmp) / "sensor")
         try:
+            # taken once the devices run (and given back below): a rig that fails to start leaves them as they were
+            previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
             out_lock = threading.Lock()
             with out_lock:
                 print(f"sensor: {rig.sensor_protocol}:{rig.sensor_url} baud={rig.sensor_baudrate} "
