@@ -17,11 +17,14 @@ import signal
 import subprocess
 import sys
 import threading
+from collections.abc import Callable
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 from typing import IO, Any, NamedTuple
 
 from tui.cli import main
+
+from .waiting import wait_for
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -74,6 +77,34 @@ def spawn(*args: str | os.PathLike[str], tmp_dir: Path, sigint_ignored: bool = F
         argv = ["sh", "-c", 'trap "" INT; exec "$0" "$@"', *argv]  # an ignored signal stays so across exec
     env = {**os.environ, "TMPDIR": str(tmp_dir)}
     return subprocess.Popen(argv, cwd=ROOT, env=env, text=True, **popen)
+
+
+def kill_when(condition: Callable[[], bool], *args: str | os.PathLike[str], tmp_dir: Path, what: str,
+              timeout_s: float = 60.0) -> None:
+    """Start ``guideway ARGS`` as a separate process and kill it with SIGKILL (nothing can clean up) as soon
+    as ``condition()`` holds; fails if the process ends first or ``timeout_s`` passes."""
+    proc = spawn(*args, tmp_dir=tmp_dir, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        wait_for(lambda: condition() or proc.poll() is not None, timeout_s=timeout_s, what=what)
+        assert proc.poll() is None, f"guideway {args[0]} ended (exit {proc.returncode}) before {what}"
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+def run_separately(*args: str | os.PathLike[str], tmp_dir: Path, timeout_s: float = 90.0
+                   ) -> subprocess.CompletedProcess[str]:
+    """``python -m tui.cli ARGS`` as a separate process, to its end; killed, and the test failed, if it
+    still runs after ``timeout_s``."""
+    with spawn(*args, tmp_dir=tmp_dir, stdout=subprocess.PIPE, stderr=subprocess.PIPE) as proc:
+        try:
+            out, err = proc.communicate(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.communicate()
+            raise AssertionError(f"guideway {' '.join(map(os.fspath, args))} still ran after {timeout_s} s; "
+                                 "killed") from None
+    return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
 
 
 class LineReader:

@@ -78,5 +78,6 @@ def test_headless_modules_do_not_load_textual() -> None:
         "drivers.interferometer, drivers.keyence_lkg, mocks.world, tui.cli\n"
         "print('textual' in sys.modules)"
     )
+    # a fresh interpreter (the point): this one may have loaded textual for other tests
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"

@@ -7,9 +7,6 @@ separate process (being killed is the point)."""
 from __future__ import annotations
 
 import json
-import os
-import signal
-import subprocess
 from pathlib import Path
 
 import pytest
@@ -17,8 +14,8 @@ import pytest
 from acquisition.runstore import load_run
 from tui.cli import main
 
-from .cli import guideway, one_line_error, spawn
-from .waiting import line_count, wait_for
+from .cli import guideway, kill_when, one_line_error
+from .waiting import line_count
 
 
 @pytest.fixture(scope="module")
@@ -68,15 +65,9 @@ def test_demo_refuses_non_empty_out(tmp_path: Path, capsys: pytest.CaptureFixtur
 
 def test_killed_run_keeps_every_written_point(tmp_path: Path) -> None:
     out = tmp_path / "run"
-    # the killed process's temporary files (the sensor link) go to a TMPDIR this test owns
-    proc = spawn("demo", "--out", out, "--stations", "500", "--samples", "1", tmp_dir=tmp_path / "tmp",
-                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    points = out / "points.csv"
-    try:
-        wait_for(lambda: line_count(points) > 8, timeout_s=60, what="the demo to write points")
-    finally:
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait()
+    # a separate process, killed; its temporary files (the sensor link) go to a TMPDIR this test owns
+    kill_when(lambda: line_count(out / "points.csv") > 8, "demo", "--out", out, "--stations", "500", "--samples", "1",
+              tmp_dir=tmp_path / "tmp", what="the demo to write points")
     run = load_run(out)
     assert run.meta["status"] == "in-progress"
     n = len(run.points)

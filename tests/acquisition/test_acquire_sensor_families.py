@@ -18,16 +18,13 @@ from acquisition.acquire import SimOptions, run_straightness
 from acquisition.evaluate import process_run_dir
 from acquisition.setup import straightness_setup_from_dict
 
+from ..setups import straightness_setup_text
 from ..test_demo_end_to_end import ls_residual, truth_heights_um
 from ..test_demo_sensor_families import OTHER_CHANNELS_UM, STEP_MM, residual_gain
 
-ROOT = Path(__file__).resolve().parents[2]
-
 
 def setup_text(protocol: str, baud: int | None, sign: str) -> str:
-    text = (ROOT / "docs" / "setup-straightness.toml").read_text()
-    text = text.replace("stations = 20 ", "stations = 5 ").replace("enabled = true", "enabled = false")
-    text = text.replace("samples_per_reading = 5", "samples_per_reading = 1")
+    text = straightness_setup_text(stations=5, samples=1)
     text = text.replace('protocol = "keyence-lkg"', f'protocol = "{protocol}"')
     text = text.replace('sensor_sign = "height"', f'sensor_sign = "{sign}"')
     assert f'protocol = "{protocol}"' in text and f'"{sign}"' in text

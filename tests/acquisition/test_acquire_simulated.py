@@ -7,10 +7,7 @@ from __future__ import annotations
 
 import io
 import json
-import os
 import random
-import signal
-import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -27,9 +24,9 @@ from acquisition.runstore import RunStore, load_run
 from acquisition.simulation import start_simulated_rig
 from mocks.interferometer import InterferometerEmulator, ModbusServerThread
 
-from ..cli import guideway, spawn
+from ..cli import guideway, kill_when
 from ..setups import straightness_setup_text
-from ..waiting import line_count, wait_for
+from ..waiting import line_count
 
 MEASURED = ["station", "pass", "x_mm", "lin_um", "stry_um", "strz_um", "pitch_urad", "yaw_urad", "roll_urad",
             "sensor_mm"]
@@ -117,15 +114,10 @@ def test_sigkill_then_resume_gives_the_uninterrupted_points(tmp_path: Path, seed
     setup, ref_dir = uninterrupted
     common = KILLED_COMMON
     killed_dir = tmp_path / "killed"
-    # a separate process, to be killed; its temporary files (the sensor link) go to a TMPDIR this test owns
-    proc = spawn("acquire", "straightness", "--setup", setup, "--out", killed_dir, *common, tmp_dir=tmp_path / "tmp",
-                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     kill_after = random.Random(seed).randrange(2, steps - 25)  # points on disk before the kill
-    try:
-        wait_for(lambda: line_count(killed_dir / "points.csv") > kill_after, timeout_s=60, what="points")
-    finally:
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait()
+    # a separate process, killed; its temporary files (the sensor link) go to a TMPDIR this test owns
+    kill_when(lambda: line_count(killed_dir / "points.csv") > kill_after, "acquire", "straightness", "--setup", setup,
+              "--out", killed_dir, *common, tmp_dir=tmp_path / "tmp", what="points")
     partial = load_run(killed_dir)
     assert partial.meta["status"] == "in-progress" and len(partial.points) < steps
     res = guideway("acquire", "straightness", "--out", killed_dir, "--resume", *common)

@@ -20,7 +20,7 @@ from acquisition.setup import straightness_setup_from_dict
 from mocks.xymd02 import XYMD02Emulator, start_xymd02
 from tui.cli import main
 
-from ..test_cli import guideway, one_line_error
+from ..cli import guideway, one_line_error
 from .test_acquire_sensor_families import setup_text
 
 # What the transmitter reads here: chosen far from the simulated controller's environment unit

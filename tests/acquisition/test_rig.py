@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import socket
 from pathlib import Path
 
 import pytest
@@ -13,24 +12,18 @@ from mocks.keyence_lkg import KeyenceLKGEmulator
 from mocks.serial_endpoints import TcpEndpoint
 
 
-def refused_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def test_missing_serial_port(tmp_path: Path) -> None:
     with pytest.raises(UserError, match="cannot open serial port") as info:
         open_rig("keyence-lkg", str(tmp_path / "ttyUSB9"), "modbus-tcp://127.0.0.1:1")
     assert "\n" not in str(info.value) and "check the port name" in str(info.value)
 
 
-def test_unreachable_controller_closes_the_sensor() -> None:
+def test_unreachable_controller_closes_the_sensor(refused_port: int) -> None:
     emu = KeyenceLKGEmulator(lambda _o: 0.0)
     ep = TcpEndpoint(emu)
     try:
         with pytest.raises(UserError, match="cannot connect to controller") as info:
-            open_rig("keyence-lkg", ep.url, f"modbus-tcp://127.0.0.1:{refused_port()}")
+            open_rig("keyence-lkg", ep.url, f"modbus-tcp://127.0.0.1:{refused_port}")
         assert "check the controller address" in str(info.value)
     finally:
         ep.stop()

@@ -5,7 +5,6 @@ set-up list that breaks the rule is refused unless allowed.  Also the G-code hea
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -15,37 +14,10 @@ from acquisition.errors import SetupError
 from acquisition.gcode import part_program
 from acquisition.positioning_setup import positioning_setup_from_dict
 from processing.iso230_2 import check_target_count, iso230_2_from_arrays
-from tui.cli import main
 
-ROOT = Path(__file__).resolve().parents[2]
+from ..cli import ROOT, guideway, one_line_error
+
 RULE = "target rule"
-
-
-@dataclass
-class Result:
-    returncode: int
-    stdout: str
-    stderr: str
-
-
-@pytest.fixture
-def guideway(capsys: pytest.CaptureFixture[str]):  # noqa: ANN201
-    """Run the command line in this process (as ``python -m tui.cli``, but without the start-up time)."""
-    def run(*args: str) -> Result:
-        capsys.readouterr()
-        code = main(list(args))
-        out = capsys.readouterr()
-        return Result(code, out.out, out.err)
-    return run
-
-
-def one_line_error(res: Result, *fragments: str) -> str:
-    assert res.returncode == 2, res.stderr
-    errors = [ln for ln in res.stderr.splitlines() if ln.startswith("guideway: error:")]
-    assert len(errors) == 1 and "Traceback" not in res.stderr, res.stderr
-    for f in fragments:
-        assert f in errors[0], errors[0]
-    return errors[0]
 
 
 def csv(targets: list[float]) -> str:
@@ -90,7 +62,7 @@ def test_evaluation_notes_too_few_targets() -> None:
 
 
 # -- import and process on the command line -------------------------------------------------
-def test_import_refuses_one_target_and_warns_about_few(tmp_path: Path, guideway) -> None:  # noqa: ANN001
+def test_import_refuses_one_target_and_warns_about_few(tmp_path: Path) -> None:
     one = tmp_path / "one.csv"
     one.write_text(csv([250.0]))
     one_line_error(guideway("import", "positioning", str(one), "--out", str(tmp_path / "r1"), "--compensated"),
@@ -112,7 +84,7 @@ def test_import_refuses_one_target_and_warns_about_few(tmp_path: Path, guideway)
     assert any(RULE in n for n in out["notes"]) and out["iso230_2"]["E"] == pytest.approx(2.0)
 
 
-def test_process_refuses_a_run_with_one_target(tmp_path: Path, guideway) -> None:  # noqa: ANN001
+def test_process_refuses_a_run_with_one_target(tmp_path: Path) -> None:
     two = tmp_path / "two.csv"
     two.write_text(csv([0.0, 250.0]))
     assert guideway("import", "positioning", str(two), "--out", str(tmp_path / "run"), "--compensated").returncode == 0
@@ -142,7 +114,7 @@ def test_setup_refuses_nonconforming_explicit_targets() -> None:
     assert len(positioning_setup_from_dict({"axis": {"targets_mm": [0, 200, 400, 600, 800, 1000]}}).targets) == 6
 
 
-def test_gcode_refuses_nonconforming_targets(tmp_path: Path, guideway) -> None:  # noqa: ANN001
+def test_gcode_refuses_nonconforming_targets(tmp_path: Path) -> None:
     text = (ROOT / "docs" / "setup-positioning.toml").read_text()
     text = text.replace("# targets_mm = [0.0, 248.7, 502.1, 747.9, 1000.0]", "targets_mm = [0.0, 500.0]")
     setup = tmp_path / "setup.toml"

@@ -3,7 +3,6 @@ trigger handshake against the pymodbus-server emulator over loopback TCP."""
 
 from __future__ import annotations
 
-import socket
 import struct
 
 import pytest
@@ -89,12 +88,9 @@ def test_read_and_describe_have_the_same_keys(controller) -> None:
     assert schema["position_mm"]["units"] == "mm" and schema["pitch_urad"]["units"] == "urad"
 
 
-def test_unreachable_controller_is_connection_lost() -> None:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]  # bound but not listening: refused
-        with pytest.raises(ConnectionLost, match="cannot connect"):
-            InterferometerController.from_url(f"modbus-tcp://127.0.0.1:{port}", timeout_s=0.3)
+def test_unreachable_controller_is_connection_lost(refused_port: int) -> None:
+    with pytest.raises(ConnectionLost, match="cannot connect"):
+        InterferometerController.from_url(f"modbus-tcp://127.0.0.1:{refused_port}", timeout_s=0.3)
 
 
 def test_bad_controller_url() -> None:

@@ -10,9 +10,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def test_hardware_checks_pass_against_the_simulated_rig(sim_rig) -> None:
+def test_hardware_checks_pass_against_the_simulated_rig(sim_rig, tmp_path: Path) -> None:
+    # a separate pytest (the point: the options a real rig is given); its temporary files in this test's
     res = subprocess.run(
-        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-m", "hardware",
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--basetemp", str(tmp_path / "basetemp"),
+         "-m", "hardware",
          "tests/hardware/test_real_devices.py",
          "--sensor-url", f"{sim_rig.sensor_protocol}:{sim_rig.sensor_url}",
          "--controller-url", sim_rig.controller_url],
