@@ -29,6 +29,8 @@ from drivers.readings import ControllerStatus, InterferometerReading
 from processing.air_index import air_index
 from processing.columns import POSITIONING_LINEAR, POSITIONING_ROTARY
 
+from .plan_driver import drive
+
 ROOT = Path(__file__).resolve().parents[2]
 OK = ControllerStatus(True, False, True, False, True, 1, 0, "", 0b10101)
 
@@ -69,16 +71,6 @@ class Machine:
             q = self.answers.get(msg.key)
             return q.pop(0) if q else msg.choices[0]
         return None
-
-
-def drive(plan, responder) -> Any:
-    reply = None
-    while True:
-        try:
-            msg = plan.send(reply)
-        except StopIteration:
-            return responder
-        reply = responder(msg)
 
 
 def test_in_position_sequence_and_acknowledge() -> None:

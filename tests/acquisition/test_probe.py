@@ -103,21 +103,23 @@ def test_bad_or_unreachable_devices_exit_2(capsys: pytest.CaptureFixture[str], r
 
 @pytest.mark.parametrize("sigint_ignored", [False, True], ids=["sigint-default", "sigint-ignored"])
 def test_follow_runs_until_ctrl_c(sim_rig, tmp_path: Path, sigint_ignored: bool) -> None:
-    # A process started with SIGINT ignored (a background job of a non-interactive shell: how this test
-    # once hung) still ends on Ctrl-C: --follow takes SIGINT back before it prints its first line, so
-    # the signal, sent once five readings are out, cannot come too early.  Every wait is bounded.
+    # A process started with SIGINT ignored (a background job of a non-interactive shell; before the fix
+    # it read on, and this test ran into its 30 s limit) still ends on Ctrl-C: --follow takes SIGINT back
+    # before it prints its first line, so the signal, sent once five readings are out, cannot come too
+    # early.  Every wait is bounded.
     proc = spawn("devices", "probe", "--follow", "--interval", "0.01", "--sensor", f"keyence-lkg:{sim_rig.sensor_url}",
                  tmp_dir=tmp_path / "tmp", sigint_ignored=sigint_ignored, stdout=subprocess.PIPE,
                  stderr=subprocess.PIPE)
     with proc:
         assert proc.stdout is not None and proc.stderr is not None
+        lines = LineReader(proc.stdout)
         try:
-            lines = LineReader(proc.stdout)
             seen = [lines.next_line(30, what="the probe's identity and five readings") for _ in range(6)]
             code = interrupt(proc)
         finally:
             if proc.poll() is None:
                 proc.kill()
+            lines.join()  # the reader is done with stdout before the pipe is closed
         err = proc.stderr.read()
     assert seen[5].startswith("#5 sensor:")
     assert code == 0 and "Traceback" not in err

@@ -21,6 +21,8 @@ from drivers.errors import ConnectionLost
 from drivers.readings import AveragedDisplacement, ControllerStatus, InterferometerReading, MeasurementStatus
 from processing.geometry import BlockGeometry
 
+from .plan_driver import drive
+
 GEOM = BlockGeometry((50.0, 110.0, 0.0), (150.0, 0.0, 40.0))
 OK = ControllerStatus(True, False, True, False, True, 1, 0, "", 0b10101)
 BEAM_LOST = ControllerStatus(True, False, False, True, False, 1, 1, "beam interrupted", 0b01001)
@@ -94,16 +96,6 @@ class Bench:
         if isinstance(msg, m.Wait):
             return msg.seconds
         return None
-
-
-def drive(plan, bench: Bench) -> Bench:
-    reply = None
-    while True:
-        try:
-            msg = plan.send(reply)
-        except StopIteration:
-            return bench
-        reply = bench(msg)
 
 
 def stations(points: list[dict]) -> list[tuple[int, int]]:

@@ -2,7 +2,7 @@
 section 1.5: command formats p.4-8, RMD example p.4-10, error codes p.4-16,
 read commands p.4-22, BCC rule of the HL-D3 manual).
 
-Expected BCCs come from :func:`xor_bcc`, written here from the documented rule
+Expected BCCs come from :func:`xor_bcc` (tests/drivers/hlg1_bcc.py), written from the documented rule
 ("the exclusive logical sum from the header (%) to the final character of
 communication data ... converted to 2-character ASCII code"), and are checked
 against the literal examples the document gives.
@@ -18,6 +18,7 @@ from drivers.errors import ChecksumError, DeviceError, ProtocolError, TransportT
 from drivers.panasonic_hlg1 import PanasonicHLG1
 from drivers.panasonic_hlg1 import protocol as p
 from drivers.readings import MeasurementStatus
+from tests.drivers.hlg1_bcc import framed, xor_bcc
 from tests.protocol_fakes import ExpectedProtocol
 
 ERROR_CODES = {
@@ -25,18 +26,6 @@ ERROR_CODES = {
     "11": "Communication error", "21": "Control flow error", "22": "Execution error",
     "31": "Buffering condition error 1", "32": "Buffering condition error 2", "33": "Buffering condition error 3",
 }
-
-
-def xor_bcc(text: str) -> str:
-    acc = 0
-    for ch in text:
-        acc ^= ord(ch)
-    return format(acc, "02X")
-
-
-def framed(body: str) -> bytes:
-    """``body`` with its BCC and CR, by the test's own rule."""
-    return (body + xor_bcc(body) + "\r").encode()
 
 
 # The BCC rule ----------------------------------------------------------------------------------------

@@ -24,6 +24,7 @@ from drivers.errors import DriverError
 from drivers.keyence_lkg import protocol as lkg
 from drivers.panasonic_hlg1 import protocol as hlg
 from drivers.readings import MeasurementStatus
+from tests.drivers.hlg1_bcc import xor_bcc
 
 EXAMPLES = settings(max_examples=200, deadline=None)
 
@@ -53,13 +54,6 @@ def outcome(decode: Callable[[], Any]) -> tuple[str, Any]:
         return "value", decode()
     except DriverError as exc:
         return "error", type(exc)
-
-
-def xor_bcc(text: str) -> str:
-    acc = 0
-    for ch in text:
-        acc ^= ord(ch)
-    return format(acc, "02X")
 
 
 # Random streams -------------------------------------------------------------------------------------

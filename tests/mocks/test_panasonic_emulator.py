@@ -11,17 +11,7 @@ import pytest
 
 from mocks.faults import FaultPlan
 from mocks.panasonic_hlg1 import PanasonicHLG1Emulator
-
-
-def xor_bcc(text: str) -> str:
-    acc = 0
-    for ch in text:
-        acc ^= ord(ch)
-    return format(acc, "02X")
-
-
-def framed(body: str) -> bytes:
-    return (body + xor_bcc(body) + "\r").encode()
+from tests.drivers.hlg1_bcc import framed, xor_bcc
 
 
 class Source:
