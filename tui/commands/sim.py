@@ -36,7 +36,7 @@ def serve(args: argparse.Namespace) -> int:
     sensor_emulator(args.sensor)  # bad names / specs fail before anything starts
     parse_faults(args.faults)
     stop = threading.Event()
-    previous = {}
+    previous: dict[int, object] = {}
     with tempfile.TemporaryDirectory(prefix="guideway-sim-") as tmp:
         rig = start_simulated_rig(seed=args.seed, noise=not args.no_noise, sensor=args.sensor,
                                   faults=args.faults, modbus_port=args.modbus_port,
