@@ -112,22 +112,25 @@ def fit_curves(
     *,
     model: str = "linear",
     mode: str = "bidirectional",
+    hint: FittedCurves | None = None,
     **model_options: object,
 ) -> FittedCurves:
-    """Fit ``model`` to the measured means (target in mm/deg, means in um/arcsec)."""
+    """Fit ``model`` to the measured means (target in mm/deg, means in um/arcsec).  ``hint``:
+    the same fit with one target more (leave-one-out; see :func:`~.models.fit_model`)."""
     if mode not in MODES:
         raise ValueError(f"unknown table mode {mode!r}; choose one of {', '.join(MODES)}")
     d = split_directions(target, mean_up, mean_down)
+    hint_up, hint_down = (hint.up, hint.down) if hint is not None else (None, None)
     if mode == "bidirectional":
-        up = fit_model(model, d.x_up, d.e_up, **model_options)
-        down = fit_model(model, d.x_down, d.e_down, **model_options)
+        up = fit_model(model, d.x_up, d.e_up, hint=hint_up, **model_options)  # type: ignore[arg-type]
+        down = fit_model(model, d.x_down, d.e_down, hint=hint_down, **model_options)  # type: ignore[arg-type]
         return FittedCurves(up, down, mode, 0.0)
     both = np.intersect1d(d.x_up, d.x_down)
     if len(both) < 2:
         raise ValueError("backlash mode needs at least 2 targets measured in both directions")
     e_up = d.e_up[np.isin(d.x_up, both)]
     e_dn = d.e_down[np.isin(d.x_down, both)]
-    mean = fit_model(model, both, (e_up + e_dn) / 2.0, **model_options)
+    mean = fit_model(model, both, (e_up + e_dn) / 2.0, hint=hint_up, **model_options)  # type: ignore[arg-type]
     return FittedCurves(mean, mean, mode, float(np.mean(e_up - e_dn)))
 
 
@@ -143,6 +146,29 @@ def equidistant_grid(start: float, stop: float, step: float, *, anchor: float | 
     k0 = int(np.floor((start - a) / step + eps))
     k1 = int(np.ceil((stop - a) / step - eps))
     return a + step * np.arange(k0, k1 + 1, dtype=float)
+
+
+def grid_within(lo: float, hi: float, step: float, *, anchor: float | None = None) -> np.ndarray:
+    """Equidistant positions ``anchor + k·step`` that lie inside [lo, hi] (to 1e-9 of the
+    range): a table on this grid never reaches outside the measured range.  ``anchor``
+    defaults to ``lo``; it need not lie inside the range."""
+    if not (step > 0 and np.isfinite(step)):
+        raise ValueError("grid step must be a positive number")
+    if hi < lo:
+        raise ValueError("grid stop must not be below its start")
+    a = lo if anchor is None else anchor
+    eps = 1e-9 * max(1.0, abs(lo), abs(hi), abs(a)) / step
+    k0 = int(np.ceil((lo - a) / step - eps))
+    k1 = int(np.floor((hi - a) / step + eps))
+    return a + step * np.arange(k0, k1 + 1, dtype=float)
+
+
+def floor_to(value: float, resolution: float) -> float:
+    """The largest whole multiple of ``resolution`` not above ``value`` (to 1e-9 of a
+    resolution step, so 0.3 / 0.001 is 300 steps, not 299)."""
+    if not resolution > 0:
+        raise ValueError("resolution must be positive")
+    return round(float(np.floor(value / resolution + 1e-9)) * resolution, 12)
 
 
 def is_equidistant(x: np.ndarray, rel_tol: float = 1e-6) -> bool:
