@@ -22,6 +22,7 @@ from processing.iso230_2 import (
 )
 
 from .errors import RunFormatError
+from .limits import OutOfRange, out_of_range, out_of_range_dict, print_out_of_range
 from .runstore import LoadedRun
 
 ARCSEC_PER_DEG = 3600.0
@@ -35,6 +36,7 @@ class PositioningEvaluation:
     result: Iso2302Result
     deviations: pd.DataFrame        # target_index, target, direction, run, deviation (result.unit)
     environment: CompensationInfo
+    out_of_range: tuple[OutOfRange, ...] = ()  # accepted with --accept-out-of-range (acquisition.limits)
 
     def to_dict(self) -> dict[str, Any]:
         """The object ``guideway process --json`` prints for a positioning run."""
@@ -49,6 +51,7 @@ class PositioningEvaluation:
             "environment": self.environment.to_dict(),
             "deviation": "x_ij = actual - target (after environmental compensation)",
             **r,
+            **out_of_range_dict(self.out_of_range),
         }
 
     def write(self, results_dir: Path) -> Path:
@@ -59,6 +62,7 @@ class PositioningEvaluation:
     def print_summary(self, stream: TextIO) -> None:
         r = self.result
         pt = r.per_target
+        print_out_of_range(self.out_of_range, stream)
         print(f"ISO 230-2 positioning ({r.edition}, k = {r.k:g}), {r.axis_type} axis, {len(pt)} targets, "
               f"runs up/down {r.runs_up}/{r.runs_down}, deviations in {r.unit}", file=stream)
         rows = pt if len(pt) <= MAX_TARGET_ROWS else pt.iloc[:MAX_TARGET_ROWS]
@@ -128,13 +132,15 @@ def positioning_deviations(run: LoadedRun) -> tuple[pd.DataFrame, str, Compensat
     return deviations, axis_type, info
 
 
-def evaluate_positioning_run(run: LoadedRun, *, k: float = 2.0, edition: str = DEFAULT_EDITION
-                             ) -> PositioningEvaluation:
-    """Evaluate a loaded positioning run (ISO 230-2, VDI/DGQ 3441)."""
+def evaluate_positioning_run(run: LoadedRun, *, k: float = 2.0, edition: str = DEFAULT_EDITION,
+                             accept_out_of_range: bool = False) -> PositioningEvaluation:
+    """Evaluate a loaded positioning run (ISO 230-2, VDI/DGQ 3441); readings further from their
+    target than the set-up allows are refused unless ``accept_out_of_range``."""
+    accepted = out_of_range(run, accept=accept_out_of_range) if len(run.points) else ()
     deviations, axis_type, info = positioning_deviations(run)
     try:
         result = evaluate_iso230_2(deviations, axis_type=axis_type, k=k, edition=edition)
     except ValueError as exc:
         raise RunFormatError(f"{run.path}: {exc}") from None
-    return PositioningEvaluation(run, result, deviations, info)
+    return PositioningEvaluation(run, result, deviations, info, accepted)
 

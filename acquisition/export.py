@@ -232,8 +232,10 @@ def _degree_note(curves: Any, requested: int) -> str:
     return f"polynomial degree {text} (of {requested} requested: min(requested, targets - 2), at least 1)"
 
 
-def export_run(run_dir: Path | str, options: ExportOptions) -> tuple[Any, Export]:
-    """Load and evaluate a positioning run and build its export."""
+def export_run(run_dir: Path | str, options: ExportOptions, *, accept_out_of_range: bool = False
+               ) -> tuple[Any, Export]:
+    """Load and evaluate a positioning run and build its export (values outside the set-up's
+    validation limits refused unless ``accept_out_of_range``)."""
     from .evaluate import evaluate_run
     from .runstore import load_run
 
@@ -241,7 +243,7 @@ def export_run(run_dir: Path | str, options: ExportOptions) -> tuple[Any, Export
     if run.kind != "positioning":
         raise UserError(f"{run.path} is a {run.kind} run; compensation tables come from positioning runs "
                         "(ISO 230-2); pass a positioning run directory")
-    evaluation = evaluate_run(run)
+    evaluation = evaluate_run(run, accept_out_of_range=accept_out_of_range)
     setup = run.meta.get("setup") or {}
     axis = str(setup.get("axis_name") or run.meta.get("axis") or "X")
     return run, build_export(evaluation.result, options, axis=axis, deviations=evaluation.deviations)

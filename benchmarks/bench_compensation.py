@@ -60,19 +60,23 @@ def median_s(fn: Callable[[], object], runs: int) -> tuple[float, float, float]:
     return statistics.median(times), min(times), max(times)
 
 
+def parts(n: int) -> dict[str, Callable[[], object]]:
+    x, up, dn, dev = axis(n)
+    points = MeasuredPoints.from_deviations(dev)
+    out: dict[str, Callable[[], object]] = {"comparison": lambda: compare_models(x, up, dn, deviations=dev)}
+    if cross_validate is not None:
+        out["cross-validation"] = lambda: cross_validate(points)
+        out["total"] = lambda: (compare_models(x, up, dn, deviations=dev), cross_validate(points))
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--sizes", type=int, nargs="+", default=[41, 256, 1000])
     args = ap.parse_args()
     for n in args.sizes:
-        x, up, dn, dev = axis(n)
-        points = MeasuredPoints.from_deviations(dev)
-        parts: dict[str, Callable[[], object]] = {"comparison": lambda: compare_models(x, up, dn, deviations=dev)}
-        if cross_validate is not None:
-            parts["cross-validation"] = lambda: cross_validate(points)
-            parts["total"] = lambda: (compare_models(x, up, dn, deviations=dev), cross_validate(points))
-        for name, fn in parts.items():
+        for name, fn in parts(n).items():
             med, lo, hi = median_s(fn, args.runs)
             print(f"{n:5d} targets, {name:<16}: median {med * 1000:8.1f} ms over {args.runs} runs "
                   f"(min {lo * 1000:.1f}, max {hi * 1000:.1f}); target {TARGET_S:.0f} s, ratio {med / TARGET_S:.3f}")

@@ -121,3 +121,15 @@ def status_section(page: HtmlPage, run: LoadedRun) -> None:
     reason = run.meta.get("end_reason")
     page.alert(f"Run status: {status or 'unknown'}" + (f" ({reason})" if reason else "") +
                f". {recorded} recorded; the results below cover only the points recorded.")
+
+
+def out_of_range_section(page: HtmlPage, evaluation: Any) -> None:
+    """A boxed notice listing the values outside the set-up's validation limits that were
+    evaluated anyway (``--accept-out-of-range``)."""
+    found = getattr(evaluation, "out_of_range", ())
+    if not found:
+        return
+    page.alert(f"{len(found)} value(s) outside the set-up's validation limits were evaluated anyway "
+               "(--accept-out-of-range): the results below may be meaningless.")
+    page.table(("point", "column", "value", "limit"), [(f.where, f.column, f.value, f.limit) for f in found],
+               digits=6, text_columns=(0, 1, 3))

@@ -27,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
     if to_stdout and args.json:
         raise UserError("--json prints the residuals on stdout; write the table to a file (--out FILE) "
                         "or use the default")
-    run_, export = export_run(args.run_dir, options)
+    run_, export = export_run(args.run_dir, options, accept_out_of_range=args.accept_out_of_range)
     for w in run_.warnings:
         print(f"guideway: warning: {w}", file=sys.stderr)
     info = sys.stderr if to_stdout or args.json else sys.stdout
@@ -67,6 +67,8 @@ def register(sub) -> None:  # noqa: ANN001
     ex.add_argument("--json", action="store_true",
                     help="print the residuals (comparison, table as written, cross-validation) as one JSON "
                          "object on stdout (the table is written to its file)")
+    ex.add_argument("--accept-out-of-range", action="store_true",
+                    help="use readings further from their target than the set-up allows instead of refusing")
     ex.add_argument("--out", type=Path, default=None,
                     help="output file ('-' = stdout; default RUN_DIR/results/compensation-FORMAT.*)")
     ex.add_argument("--step", type=float, default=None,
