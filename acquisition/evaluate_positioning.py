@@ -24,6 +24,7 @@ from processing.iso230_2 import (
 from .errors import RunFormatError
 from .limits import OutOfRange, out_of_range, out_of_range_dict, print_out_of_range
 from .runstore import LoadedRun
+from .tolerance import Verdict, positioning_verdict, verdict_dict
 
 ARCSEC_PER_DEG = 3600.0
 UM_PER_MM = 1000.0
@@ -37,6 +38,7 @@ class PositioningEvaluation:
     deviations: pd.DataFrame        # target_index, target, direction, run, deviation (result.unit)
     environment: CompensationInfo
     out_of_range: tuple[OutOfRange, ...] = ()  # accepted with --accept-out-of-range (acquisition.limits)
+    verdict: Verdict | None = None  # against the set-up's [tolerance] (acquisition.tolerance)
 
     def to_dict(self) -> dict[str, Any]:
         """The object ``guideway process --json`` prints for a positioning run."""
@@ -51,6 +53,7 @@ class PositioningEvaluation:
             "environment": self.environment.to_dict(),
             "deviation": "x_ij = actual - target (after environmental compensation)",
             **r,
+            **verdict_dict(self.verdict),
             **out_of_range_dict(self.out_of_range),
         }
 
@@ -81,6 +84,8 @@ class PositioningEvaluation:
         print(f"VDI/DGQ 3441 ({r.unit}): {vdi}", file=stream)
         for note in r.notes:
             print(f"note: {note}", file=stream)
+        if self.verdict is not None:
+            print(self.verdict.text(), file=stream)
 
 
 def _fmt(v: float) -> str:
@@ -142,5 +147,6 @@ def evaluate_positioning_run(run: LoadedRun, *, k: float = 2.0, edition: str = D
         result = evaluate_iso230_2(deviations, axis_type=axis_type, k=k, edition=edition)
     except ValueError as exc:
         raise RunFormatError(f"{run.path}: {exc}") from None
-    return PositioningEvaluation(run, result, deviations, info, accepted)
+    verdict = positioning_verdict(run.meta, f"{run.path}/run.json", result.axis, result.unit)
+    return PositioningEvaluation(run, result, deviations, info, accepted, verdict)
 

@@ -17,6 +17,7 @@ from processing.uncertainty import UncertaintyInputs
 from .errors import RunFormatError
 from .limits import OutOfRange, out_of_range, out_of_range_dict, print_out_of_range
 from .runstore import LoadedRun
+from .tolerance import Verdict, straightness_verdict, verdict_dict
 
 
 @dataclass(frozen=True)
@@ -24,9 +25,10 @@ class StraightnessEvaluation:
     run: LoadedRun
     result: StraightnessResult
     out_of_range: tuple[OutOfRange, ...] = ()  # accepted with --accept-out-of-range (acquisition.limits)
+    verdict: Verdict | None = None  # against the set-up's [tolerance] (acquisition.tolerance)
 
     def to_dict(self) -> dict[str, Any]:
-        return {**self.result.to_dict(), **out_of_range_dict(self.out_of_range)}
+        return {**self.result.to_dict(), **verdict_dict(self.verdict), **out_of_range_dict(self.out_of_range)}
 
     def write(self, results_dir: Path) -> Path:
         from .results import write_straightness_results  # matplotlib only when writing
@@ -52,6 +54,8 @@ class StraightnessEvaluation:
             drift = "n/a" if rp.drift_um_per_h is None else f"{rp.drift_um_per_h:.3f} um/h"
             print(f"  return pass: profile = mean of both passes; closure error {closure}, drift {drift}",
                   file=stream)
+        if self.verdict is not None:
+            print(self.verdict.text(), file=stream)
 
 
 # The channels each decoupling method uses (docs/conventions.md); a NaN/inf there cannot be decoupled.
@@ -110,4 +114,6 @@ def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, m
                                        mc_trials=mc_trials, mc_seed=mc_seed)
     except ValueError as exc:
         raise RunFormatError(f"{run.path}: {exc}") from exc
-    return StraightnessEvaluation(run, result, accepted)
+    u = result.uncertainty.to_dict().get("straightness", {}) if result.uncertainty is not None else {}
+    verdict = straightness_verdict(run.meta, f"{run.path}/run.json", result.straightness_um(), u)
+    return StraightnessEvaluation(run, result, accepted, verdict)

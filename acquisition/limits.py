@@ -12,8 +12,8 @@ Limits (docs/setup-*.toml, the same as the checks on every capture):
   |strz_um|), max_angle_urad (|pitch|, |yaw|, |roll|), max_lin_um (|lin_um|);
 * positioning: ``max_deviation_mm`` / ``max_deviation_deg`` (|reading − target|).
 
-Run files without the keys take the set-up defaults.  NaN is not "outside" (the evaluators
-report a missing value on their own).
+Run files without the keys take the set-up defaults.  NaN and inf are not "outside" (the
+evaluators report a value that is not finite on their own, where the method needs it).
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ def _validation(run: LoadedRun) -> ValidationSetup:
 
 def _outside(values: np.ndarray, lo: float, hi: float) -> np.ndarray:
     with np.errstate(invalid="ignore"):
-        return np.flatnonzero((values < lo) | (values > hi))
+        return np.flatnonzero(np.isfinite(values) & ((values < lo) | (values > hi)))
 
 
 def straightness_out_of_range(run: LoadedRun) -> list[OutOfRange]:
