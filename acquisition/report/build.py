@@ -21,6 +21,7 @@ from .common import (
     instruments_section,
     out_of_range_section,
     run_section,
+    simulated_banner,
     status_section,
 )
 from .html import HtmlPage
@@ -63,15 +64,20 @@ def render_report(run: LoadedRun, evaluation: Any, *, not_evaluated: str | None 
     """The HTML document of ``run`` and its ``evaluation`` (None: ``not_evaluated`` says why)."""
     from ..evaluate_positioning import PositioningEvaluation
     from ..evaluate_straightness import StraightnessEvaluation
-    from .positioning import positioning_sections
-    from .straightness import straightness_sections
+    from .positioning import positioning_headline, positioning_sections
+    from .straightness import straightness_headline, straightness_sections
 
     m = run.meta
     axis = m.get("axis") or (m.get("setup") or {}).get("axis_name") or ""
     title = f"guideway {run.kind} report — {m.get('machine') or 'machine'}" + (f", axis {axis}" if axis else "")
     page = HtmlPage(title)
+    simulated_banner(page, run)
     status_section(page, run)
     out_of_range_section(page, evaluation)
+    if isinstance(evaluation, StraightnessEvaluation):
+        straightness_headline(page, evaluation)
+    elif isinstance(evaluation, PositioningEvaluation):
+        positioning_headline(page, evaluation)
     run_section(page, run)
     if isinstance(evaluation, StraightnessEvaluation):
         straightness_sections(page, evaluation)
