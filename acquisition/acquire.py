@@ -23,7 +23,7 @@ from typing import Any, TextIO
 from . import inposition  # noqa: F401 - registers the in-position message handlers
 from .engine import RunEngine, RunOutcome
 from .errors import SetupError, UserError
-from .live import LiveProfile
+from .live import LiveDeviation, LiveProfile
 from .operators import AutoOperator, Operator, TerminalOperator
 from .plans.positioning import positioning_plan, positioning_resume_point
 from .plans.straightness import ResumePoint, resume_point, straightness_plan
@@ -233,6 +233,19 @@ class PositioningResult:
     setup: PositioningSetup
     sim: SimulatedMachine | None  # stopped; its axis stays readable (ground truth for tests)
     faults: tuple[str, ...] = ()
+    live: LiveDeviation | None = None  # the compensated deviations shown while the run went on
+
+
+def live_deviation_printer(stream: TextIO, unit: str) -> Callable[[dict[str, Any], float, str], None]:
+    """The terminal line of each new positioning point (values from :class:`LiveDeviation`)."""
+    shown = {"um": "µm"}.get(unit, unit)
+
+    def show(row: dict[str, Any], deviation: float, label: str) -> None:
+        arrow = "up (+)" if int(row["direction"]) > 0 else "down (-)"
+        print(f"  live: run {int(row['run'])} {arrow} target {int(row['target_index'])}: deviation "
+              f"{deviation:+.3f} {shown} ({label})", file=stream)
+
+    return show
 
 
 @_no_empty_run_dir
@@ -295,11 +308,15 @@ def run_positioning(
             _record_devices(store, rig, simulate, resumed=rp is not None)
             actions = {"cycle_start": sim.cycle_start} if sim is not None else {}
             operator = _operator(operator, actions, auto, stdin, stream)
-            engine = RunEngine(rig, operator, (store,))
+            first = store.loaded_points[0] if rp is not None and store.loaded_points else None
+            live = LiveDeviation(setup.axis_type, setup.environment.to_dict(),
+                                 live_deviation_printer(stream, "arcsec" if setup.axis_type == "rotary" else "um"),
+                                 first)
+            engine = RunEngine(rig, operator, (store, live))
             outcome = engine.run(positioning_plan(setup, {}, resume=rp))
         finally:
             rig.close()
     finally:
         cleanup.close()
     _print_outcome(outcome, store, out, stream)
-    return PositioningResult(out, outcome, setup, sim, tuple(engine.faults))
+    return PositioningResult(out, outcome, setup, sim, tuple(engine.faults), live)

@@ -11,7 +11,7 @@ from typing import Any, TextIO
 import numpy as np
 import pandas as pd
 
-from processing.environment import CompensationInfo, EnvironmentSettings, compensate_points
+from processing.environment import CompensationInfo, EnvironmentSettings, angular_deviation_deg, compensate_points
 from processing.iso230_2 import (
     AXIS_QUANTITIES,
     DEFAULT_EDITION,
@@ -111,10 +111,7 @@ def positioning_deviations(run: LoadedRun) -> tuple[pd.DataFrame, str, Compensat
         raise RunFormatError(f"{run.path}/run.json: {exc}") from None
     if axis_type == "rotary":
         target = pts["target_deg"].to_numpy(dtype=float)
-        # Wrap to (-180, 180] deg so that 359.9999 read at target 0 is a small negative deviation.
-        diff = pts["reading_deg"].to_numpy(dtype=float) - target
-        diff = -((-diff + 180.0) % 360.0 - 180.0)
-        dev = diff * ARCSEC_PER_DEG
+        dev = angular_deviation_deg(pts["reading_deg"].to_numpy(dtype=float), target) * ARCSEC_PER_DEG
         info = CompensationInfo(applied=False, reason="rotary axis: angular readings are not air-compensated "
                                 "(the index cancels in an angular interferometer)")
     else:

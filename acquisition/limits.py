@@ -25,6 +25,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from processing.environment import angular_deviation_deg
+
 from .errors import RunFormatError, SetupError
 from .runstore import LoadedRun
 from .setup import ValidationSetup
@@ -98,9 +100,7 @@ def positioning_out_of_range(run: LoadedRun) -> list[OutOfRange]:
     pts: pd.DataFrame = run.points
     target = pts[f"target_{u}"].to_numpy(dtype=float)
     reading = pts[f"reading_{u}"].to_numpy(dtype=float)
-    diff = reading - target
-    if u == "deg":  # 359.9999 read at target 0 is a small deviation
-        diff = -((-diff + 180.0) % 360.0 - 180.0)
+    diff = angular_deviation_deg(reading, target) if u == "deg" else reading - target
     found = []
     for i in _outside(diff, -float(limit), float(limit)):
         row = pts.iloc[int(i)]
