@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from processing.compensation.tables import floor_to, grid_within
+from processing.compensation.tables import equidistant_grid, floor_to
 
 from .errors import UserError
 
@@ -100,7 +100,7 @@ def table_grid(d: AxisData, o: ExportOptions) -> tuple[np.ndarray | None, list[s
                             "reference position, or give one inside the range")
     if (hi - x0) / step > MAX_GRID_POINTS:
         raise UserError(f"--step {step:g} gives more than {MAX_GRID_POINTS} table points; use a larger step")
-    grid = grid_within(x0, hi, step, anchor=anchor)
+    grid = equidistant_grid(x0, hi, step, anchor=anchor, inside=True)
     if len(grid) < 2:
         raise UserError(f"--step {step:g} leaves fewer than 2 table points within the measured range "
                         f"{x0:g} … {x1:g} {d.position_unit}; use a smaller step")

@@ -134,32 +134,24 @@ def fit_curves(
     return FittedCurves(mean, mean, mode, float(np.mean(e_up - e_dn)))
 
 
-def equidistant_grid(start: float, stop: float, step: float, *, anchor: float | None = None) -> np.ndarray:
-    """Equidistant positions ``anchor + k·step`` covering [start, stop] (the first point at or
-    below ``start``, the last at or above ``stop``).  ``anchor`` defaults to ``start``."""
+def equidistant_grid(start: float, stop: float, step: float, *, anchor: float | None = None,
+                     inside: bool = False) -> np.ndarray:
+    """Equidistant positions ``anchor + k·step`` (``anchor`` defaults to ``start``):
+
+    * covering [start, stop]: the first point at or below ``start``, the last at or above ``stop``;
+    * ``inside``: only the points within [start, stop] (to 1e-9 of the range), so a table on the
+      grid never reaches outside the measured range (``anchor`` need not lie inside)."""
     if not (step > 0 and np.isfinite(step)):
         raise ValueError("grid step must be a positive number")
     if stop < start:
         raise ValueError("grid stop must not be below its start")
     a = start if anchor is None else anchor
     eps = 1e-9 * max(1.0, abs(start), abs(stop), abs(a)) / step
-    k0 = int(np.floor((start - a) / step + eps))
-    k1 = int(np.ceil((stop - a) / step - eps))
-    return a + step * np.arange(k0, k1 + 1, dtype=float)
-
-
-def grid_within(lo: float, hi: float, step: float, *, anchor: float | None = None) -> np.ndarray:
-    """Equidistant positions ``anchor + k·step`` that lie inside [lo, hi] (to 1e-9 of the
-    range): a table on this grid never reaches outside the measured range.  ``anchor``
-    defaults to ``lo``; it need not lie inside the range."""
-    if not (step > 0 and np.isfinite(step)):
-        raise ValueError("grid step must be a positive number")
-    if hi < lo:
-        raise ValueError("grid stop must not be below its start")
-    a = lo if anchor is None else anchor
-    eps = 1e-9 * max(1.0, abs(lo), abs(hi), abs(a)) / step
-    k0 = int(np.ceil((lo - a) / step - eps))
-    k1 = int(np.floor((hi - a) / step + eps))
+    lo, hi = (start - a) / step, (stop - a) / step
+    if inside:
+        k0, k1 = int(np.ceil(lo - eps)), int(np.floor(hi + eps))
+    else:
+        k0, k1 = int(np.floor(lo + eps)), int(np.ceil(hi - eps))
     return a + step * np.arange(k0, k1 + 1, dtype=float)
 
 
