@@ -131,7 +131,7 @@ class Export:
             out["table_as_written"] = figures_json(self.scores.written, u)
             out["model_on_its_nodes"] = figures_json(self.scores.nodes, u)
             out["on_the_grid"] = None if self.scores.grid is None else figures_json(self.scores.grid, u)
-            out["regridding"] = list(self.cost)
+            out["costs"] = list(self.cost)
         return out
 
 

@@ -81,7 +81,7 @@ def test_fanuc_table_stays_inside_and_is_scored_as_written(run_dir: Path, tmp_pa
     dev = pd.concat([g for _, g in dev.groupby("direction", sort=False)])
     check_written(got, dev, corr)
     assert got["table"]["step_mm"] == 247.726 and got["table"]["last_mm"] == pytest.approx(995.308)
-    assert any("regridding costs accuracy" in line for line in got["regridding"])
+    assert any("regridding costs accuracy" in line for line in got["costs"])
     assert any("0.002 mm before the last target" in n for n in got["notes"])
 
 
@@ -140,7 +140,7 @@ def test_linuxcnc_on_the_targets_costs_nothing(run_dir: Path, tmp_path: Path, fi
                     c.correction_um(dev.target.to_numpy(), -1))
     r = dev.deviation.to_numpy() + corr
     assert got["table_as_written"]["rms_um"] == pytest.approx(figures(dev, r)["rms_um"], abs=2e-3)  # float32 trims
-    assert got["on_the_grid"] is None and got["regridding"] == []
+    assert got["on_the_grid"] is None and got["costs"] == []
     # a table through the means leaves each point's scatter about its target's mean
     scatter = dev.deviation - dev.groupby(["target", "direction"]).deviation.transform("mean")
     assert got["model_on_its_nodes"]["rms_um"] == pytest.approx(float(np.sqrt(np.mean(scatter**2))), abs=1e-9)
