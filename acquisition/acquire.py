@@ -23,7 +23,7 @@ from typing import Any, TextIO
 from . import inposition  # noqa: F401 - registers the in-position message handlers
 from .engine import RunEngine, RunOutcome
 from .errors import SetupError, UserError
-from .live import LiveProfile
+from .live import LiveDeviation, LiveProfile
 from .operators import AutoOperator, Operator, TerminalOperator
 from .plans.positioning import positioning_plan, positioning_resume_point
 from .plans.straightness import ResumePoint, resume_point, straightness_plan
@@ -32,9 +32,12 @@ from .rig import open_controller_rig, open_rig
 from .runstore import RunStore
 from .setup import DeviceSetup, StraightnessSetup, straightness_setup_from_run
 from .simulation import (
+    REQUESTS_PER_SAMPLE,
     SimulatedMachine,
     SimulatedRig,
     SimulatedTransmitter,
+    fault_report,
+    refuse_faults_that_cannot_fire,
     sensor_emulator,
     start_simulated_machine,
     start_simulated_rig,
@@ -71,6 +74,17 @@ def _record_devices(store: RunStore, rig: Any, simulate: SimOptions | None, *, r
     store.header["instruments"] = rig.instruments()
     if simulate is not None:
         store.header["simulation"] = simulate.to_dict()
+
+
+def _report_faults(store: RunStore, plan: Any, stream: TextIO) -> None:
+    """run.json ``fault_plan`` and a note for every injected fault that did not fire."""
+    report = fault_report(plan)
+    if report is None:
+        return
+    store("annotate", {"key": "fault_plan", "value": report})
+    asked = ", ".join(f"{d} {n}" for d, n in report["requests"].items())
+    for spec in report["not_fired"]:
+        print(f"note: fault {spec} did not fire (requests: {asked})", file=stream)
 
 
 def _print_outcome(outcome: RunOutcome, store: RunStore, out: Path, stream: TextIO) -> None:
@@ -152,6 +166,17 @@ def _no_empty_run_dir(run: Callable[..., Any]) -> Callable[..., Any]:
     return wrapper
 
 
+def _sensor_requests(sim: SimulatedRig, setup: StraightnessSetup, rp: ResumePoint | None, auto: bool) -> int | None:
+    """The sensor requests of the rest of a fault-free automatic run (the requests so far, at open,
+    plus one averaged reading per remaining step); None when an operator or a warm-up makes it
+    open-ended."""
+    per_sample = REQUESTS_PER_SAMPLE.get(sim.sensor_protocol)
+    if not auto or per_sample is None or sim.faults is None or (setup.warmup.enabled and rp is None):
+        return None
+    remaining = len(setup.steps()) - (rp.next_index if rp is not None else 0)
+    return sim.faults.requests("sensor") + per_sample * setup.samples_per_reading * remaining
+
+
 @_no_empty_run_dir
 def run_straightness(
     setup: StraightnessSetup | None,
@@ -209,6 +234,9 @@ def run_straightness(
                        environment_url=devices.environment_url or None)
         try:
             _record_devices(store, rig, simulate, resumed=rp is not None)
+            if sim is not None:
+                expected = _sensor_requests(sim, setup, rp, auto and operator is None)
+                refuse_faults_that_cannot_fire(sim.faults, sensor=True, sensor_requests=expected)
             actions = {"place_block": sim.place_block} if sim is not None else {}
             operator = _operator(operator, actions, auto, stdin, stream)
             def show(p: int, k: int, h: float) -> None:
@@ -218,6 +246,8 @@ def run_straightness(
             live = LiveProfile(setup.geometry, show, first)
             engine = RunEngine(rig, operator, (store, live))
             outcome = engine.run(straightness_plan(setup, {}, resume=rp))
+            if sim is not None:
+                _report_faults(store, sim.faults, stream)
         finally:
             rig.close()
     finally:
@@ -233,6 +263,19 @@ class PositioningResult:
     setup: PositioningSetup
     sim: SimulatedMachine | None  # stopped; its axis stays readable (ground truth for tests)
     faults: tuple[str, ...] = ()
+    live: LiveDeviation | None = None  # the compensated deviations shown while the run went on
+
+
+def live_deviation_printer(stream: TextIO, unit: str) -> Callable[[dict[str, Any], float, str], None]:
+    """The terminal line of each new positioning point (values from :class:`LiveDeviation`)."""
+    shown = {"um": "µm"}.get(unit, unit)
+
+    def show(row: dict[str, Any], deviation: float, label: str) -> None:
+        arrow = "up (+)" if int(row["direction"]) > 0 else "down (-)"
+        print(f"  live: run {int(row['run'])} {arrow} target {int(row['target_index'])}: deviation "
+              f"{deviation:+.3f} {shown} ({label})", file=stream)
+
+    return show
 
 
 @_no_empty_run_dir
@@ -282,6 +325,7 @@ def run_positioning(
             sim = start_simulated_machine(setup, seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
                                           start_at=rp.next_index if rp is not None else 0)
             cleanup.callback(sim.close)
+            refuse_faults_that_cannot_fire(sim.faults, sensor=False)
             url = sim.controller_url
             print(f"simulated machine axis {setup.axis_name} ({setup.trigger.mode} trigger) behind {url}",
                   file=stream)
@@ -295,11 +339,17 @@ def run_positioning(
             _record_devices(store, rig, simulate, resumed=rp is not None)
             actions = {"cycle_start": sim.cycle_start} if sim is not None else {}
             operator = _operator(operator, actions, auto, stdin, stream)
-            engine = RunEngine(rig, operator, (store,))
+            first = store.loaded_points[0] if rp is not None and store.loaded_points else None
+            live = LiveDeviation(setup.axis_type, setup.environment.to_dict(),
+                                 live_deviation_printer(stream, "arcsec" if setup.axis_type == "rotary" else "um"),
+                                 first)
+            engine = RunEngine(rig, operator, (store, live))
             outcome = engine.run(positioning_plan(setup, {}, resume=rp))
+            if sim is not None:
+                _report_faults(store, sim.faults, stream)
         finally:
             rig.close()
     finally:
         cleanup.close()
     _print_outcome(outcome, store, out, stream)
-    return PositioningResult(out, outcome, setup, sim, tuple(engine.faults))
+    return PositioningResult(out, outcome, setup, sim, tuple(engine.faults), live)

@@ -31,10 +31,11 @@ EVALUATORS: dict[str, Callable[..., Evaluation]] = {
 }
 
 
-# The options each evaluator takes (command-line flags --method, --mc-trials, --k, --edition).
+# The options each evaluator takes (command-line flags --method, --mc-trials, --k, --edition,
+# --accept-out-of-range).
 EVALUATOR_OPTIONS: dict[str, tuple[str, ...]] = {
-    "straightness": ("method", "mc_trials"),
-    "positioning": ("k", "edition"),
+    "straightness": ("method", "mc_trials", "accept_out_of_range"),
+    "positioning": ("k", "edition", "accept_out_of_range"),
 }
 
 

@@ -11,7 +11,7 @@ from typing import Any, TextIO
 import numpy as np
 import pandas as pd
 
-from processing.environment import CompensationInfo, EnvironmentSettings, compensate_points
+from processing.environment import CompensationInfo, EnvironmentSettings, angular_deviation_deg, compensate_points
 from processing.iso230_2 import (
     AXIS_QUANTITIES,
     DEFAULT_EDITION,
@@ -22,7 +22,9 @@ from processing.iso230_2 import (
 )
 
 from .errors import RunFormatError
+from .limits import OutOfRange, out_of_range, out_of_range_dict, print_out_of_range
 from .runstore import LoadedRun
+from .tolerance import Verdict, positioning_verdict, verdict_dict
 
 ARCSEC_PER_DEG = 3600.0
 UM_PER_MM = 1000.0
@@ -35,6 +37,8 @@ class PositioningEvaluation:
     result: Iso2302Result
     deviations: pd.DataFrame        # target_index, target, direction, run, deviation (result.unit)
     environment: CompensationInfo
+    out_of_range: tuple[OutOfRange, ...] = ()  # accepted with --accept-out-of-range (acquisition.limits)
+    verdict: Verdict | None = None  # against the set-up's [tolerance] (acquisition.tolerance)
 
     def to_dict(self) -> dict[str, Any]:
         """The object ``guideway process --json`` prints for a positioning run."""
@@ -49,6 +53,8 @@ class PositioningEvaluation:
             "environment": self.environment.to_dict(),
             "deviation": "x_ij = actual - target (after environmental compensation)",
             **r,
+            **verdict_dict(self.verdict),
+            **out_of_range_dict(self.out_of_range),
         }
 
     def write(self, results_dir: Path) -> Path:
@@ -59,6 +65,7 @@ class PositioningEvaluation:
     def print_summary(self, stream: TextIO) -> None:
         r = self.result
         pt = r.per_target
+        print_out_of_range(self.out_of_range, stream)
         print(f"ISO 230-2 positioning ({r.edition}, k = {r.k:g}), {r.axis_type} axis, {len(pt)} targets, "
               f"runs up/down {r.runs_up}/{r.runs_down}, deviations in {r.unit}", file=stream)
         rows = pt if len(pt) <= MAX_TARGET_ROWS else pt.iloc[:MAX_TARGET_ROWS]
@@ -77,6 +84,8 @@ class PositioningEvaluation:
         print(f"VDI/DGQ 3441 ({r.unit}): {vdi}", file=stream)
         for note in r.notes:
             print(f"note: {note}", file=stream)
+        if self.verdict is not None:
+            print(self.verdict.text(), file=stream)
 
 
 def _fmt(v: float) -> str:
@@ -102,10 +111,7 @@ def positioning_deviations(run: LoadedRun) -> tuple[pd.DataFrame, str, Compensat
         raise RunFormatError(f"{run.path}/run.json: {exc}") from None
     if axis_type == "rotary":
         target = pts["target_deg"].to_numpy(dtype=float)
-        # Wrap to (-180, 180] deg so that 359.9999 read at target 0 is a small negative deviation.
-        diff = pts["reading_deg"].to_numpy(dtype=float) - target
-        diff = -((-diff + 180.0) % 360.0 - 180.0)
-        dev = diff * ARCSEC_PER_DEG
+        dev = angular_deviation_deg(pts["reading_deg"].to_numpy(dtype=float), target) * ARCSEC_PER_DEG
         info = CompensationInfo(applied=False, reason="rotary axis: angular readings are not air-compensated "
                                 "(the index cancels in an angular interferometer)")
     else:
@@ -128,13 +134,16 @@ def positioning_deviations(run: LoadedRun) -> tuple[pd.DataFrame, str, Compensat
     return deviations, axis_type, info
 
 
-def evaluate_positioning_run(run: LoadedRun, *, k: float = 2.0, edition: str = DEFAULT_EDITION
-                             ) -> PositioningEvaluation:
-    """Evaluate a loaded positioning run (ISO 230-2, VDI/DGQ 3441)."""
+def evaluate_positioning_run(run: LoadedRun, *, k: float = 2.0, edition: str = DEFAULT_EDITION,
+                             accept_out_of_range: bool = False) -> PositioningEvaluation:
+    """Evaluate a loaded positioning run (ISO 230-2, VDI/DGQ 3441); readings further from their
+    target than the set-up allows are refused unless ``accept_out_of_range``."""
+    accepted = out_of_range(run, accept=accept_out_of_range) if len(run.points) else ()
     deviations, axis_type, info = positioning_deviations(run)
     try:
         result = evaluate_iso230_2(deviations, axis_type=axis_type, k=k, edition=edition)
     except ValueError as exc:
         raise RunFormatError(f"{run.path}: {exc}") from None
-    return PositioningEvaluation(run, result, deviations, info)
+    verdict = positioning_verdict(run.meta, f"{run.path}/run.json", result.axis, result.unit)
+    return PositioningEvaluation(run, result, deviations, info, accepted, verdict)
 

@@ -15,16 +15,20 @@ from processing.straightness import StraightnessResult, evaluate_straightness
 from processing.uncertainty import UncertaintyInputs
 
 from .errors import RunFormatError
+from .limits import OutOfRange, out_of_range, out_of_range_dict, print_out_of_range
 from .runstore import LoadedRun
+from .tolerance import Verdict, straightness_verdict, verdict_dict
 
 
 @dataclass(frozen=True)
 class StraightnessEvaluation:
     run: LoadedRun
     result: StraightnessResult
+    out_of_range: tuple[OutOfRange, ...] = ()  # accepted with --accept-out-of-range (acquisition.limits)
+    verdict: Verdict | None = None  # against the set-up's [tolerance] (acquisition.tolerance)
 
     def to_dict(self) -> dict[str, Any]:
-        return self.result.to_dict()
+        return {**self.result.to_dict(), **verdict_dict(self.verdict), **out_of_range_dict(self.out_of_range)}
 
     def write(self, results_dir: Path) -> Path:
         from .results import write_straightness_results  # matplotlib only when writing
@@ -35,6 +39,7 @@ class StraightnessEvaluation:
         r = self.result
         n = len(r.profile)
         span = float(r.profile["x_mm"].iloc[-1]) if n else 0.0
+        print_out_of_range(self.out_of_range, stream)
         print(f"stations: {n}, travel {span:g} mm, decoupling: {r.method}", file=stream)
         mc = r.uncertainty.to_dict().get("straightness", {}) if r.uncertainty else {}
         for name, value in r.straightness_um().items():
@@ -49,6 +54,8 @@ class StraightnessEvaluation:
             drift = "n/a" if rp.drift_um_per_h is None else f"{rp.drift_um_per_h:.3f} um/h"
             print(f"  return pass: profile = mean of both passes; closure error {closure}, drift {drift}",
                   file=stream)
+        if self.verdict is not None:
+            print(self.verdict.text(), file=stream)
 
 
 # The channels each decoupling method uses (docs/conventions.md); a NaN/inf there cannot be decoupled.
@@ -81,11 +88,12 @@ def check_finite(run: LoadedRun, method: str) -> None:
 
 
 def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, mc_trials: int | None = None,
-                              mc_seed: int = 0) -> StraightnessEvaluation:
+                              mc_seed: int = 0, accept_out_of_range: bool = False) -> StraightnessEvaluation:
     """Evaluate a loaded straightness run.
 
     ``mc_trials``: Monte Carlo trials for the straightness uncertainty; 0 skips it, None takes
-    :func:`default_mc_trials` of the number of points.
+    :func:`default_mc_trials` of the number of points.  Values outside the set-up's validation
+    limits are refused unless ``accept_out_of_range`` (acquisition.limits).
     """
     try:
         geometry = BlockGeometry.from_dict(run.meta["setup"]["geometry"])
@@ -97,6 +105,7 @@ def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, m
         inputs = UncertaintyInputs.from_dict(run.meta["setup"].get("uncertainty"))
     except ValueError as exc:
         raise RunFormatError(f"{run.path}/run.json: {exc}") from exc
+    accepted = out_of_range(run, accept=accept_out_of_range)
     check_finite(run, method)
     if mc_trials is None:
         mc_trials = default_mc_trials(len(run.points))
@@ -105,4 +114,6 @@ def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, m
                                        mc_trials=mc_trials, mc_seed=mc_seed)
     except ValueError as exc:
         raise RunFormatError(f"{run.path}: {exc}") from exc
-    return StraightnessEvaluation(run, result)
+    u = result.uncertainty.to_dict().get("straightness", {}) if result.uncertainty is not None else {}
+    verdict = straightness_verdict(run.meta, f"{run.path}/run.json", result.straightness_um(), u)
+    return StraightnessEvaluation(run, result, accepted, verdict)

@@ -18,15 +18,23 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from processing.compensation.fanuc import fanuc_pitch_table, fanuc_text, round_half_away
-from processing.compensation.generic_csv import csv_text
-from processing.compensation.linuxcnc import linuxcnc_comp_text
 from processing.compensation.models import DEFAULT_POLYNOMIAL_DEGREE, MODEL_NAMES
-from processing.compensation.residuals import basis_text, compare_models, format_comparison
-from processing.compensation.siemens import siemens_lec_text
-from processing.compensation.tables import MODES, ErrorTable, equidistant_grid, fit_curves, tabulate
+from processing.compensation.residuals import basis_text, compare_models, format_comparison, measured_points
+from processing.compensation.tables import MODES, ErrorTable, fit_curves, tabulate
 
 from .errors import UserError
+from .export_grid import table_grid
+from .export_residuals import (
+    TableScores,
+    cost_lines,
+    figures_json,
+    format_model_residuals,
+    format_table_scores,
+    model_residuals,
+    residuals_json,
+    score_tables,
+)
+from .export_writers import write_table
 
 # What the command line needs of the compensation package (tui imports acquisition only).
 __all__ = ["DEFAULT_POLYNOMIAL_DEGREE", "FORMATS", "MODEL_NAMES", "MODES", "Export", "ExportOptions", "basis_text",
@@ -34,8 +42,6 @@ __all__ = ["DEFAULT_POLYNOMIAL_DEGREE", "FORMATS", "MODEL_NAMES", "MODES", "Expo
 
 FORMATS = ("linuxcnc", "fanuc", "siemens", "csv")
 SUFFIX = {"linuxcnc": ".comp", "fanuc": ".txt", "siemens": ".ini", "csv": ".csv"}
-EQUIDISTANT = ("fanuc", "siemens")
-MAX_GRID_POINTS = 100_000  # no controller takes more; guards against a mistyped --step
 UNITS = {"linear": ("mm", "um", 1e-3), "rotary": ("deg", "arcsec", 1.0 / 3600.0)}
 
 
@@ -67,6 +73,11 @@ class ExportOptions:
 
 @dataclass(frozen=True)
 class Export:
+    """A controller file and what it leaves: ``comparison`` (every model on the same table
+    positions, compare_models), ``scores`` (the chosen model on its own nodes, on the grid and as
+    written), ``residuals`` (in-sample and cross-validated residual of every model,
+    export_residuals.model_residuals)."""
+
     text: str
     table: ErrorTable
     comparison: pd.DataFrame
@@ -74,6 +85,54 @@ class Export:
     error_unit: str
     suffix: str
     notes: list[str] = field(default_factory=list)
+    fmt: str = ""
+    model: str = ""
+    grid_step: float | None = None
+    scores: TableScores | None = None
+    residuals: dict[str, Any] = field(default_factory=dict)
+    cost: list[str] = field(default_factory=list)
+
+    @property
+    def grid_text(self) -> str:
+        return grid_text(self.grid_step, self.position_unit)
+
+    def residual_text(self) -> str:
+        """Everything ``guideway export`` prints after the file's name and notes."""
+        u = self.error_unit
+        parts = [f"residual after compensation ({u}):", format_comparison(self.comparison, u)]
+        if self.scores is not None:
+            parts.append(format_table_scores(self.scores, u, self.grid_text, self.model))
+        parts += self.cost
+        if self.residuals:
+            parts.append(format_model_residuals(self.residuals, u))
+        return "\n".join(parts)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The object ``guideway export --json`` prints (docs/compensation.md)."""
+        u = self.error_unit
+        rows = []
+        for r in self.comparison.itertuples(index=False):
+            row = {"model": r.model, "table_points": int(r.table_points), "note": r.note, "detail": r.detail}
+            row.update(figures_json({k: float(getattr(r, k)) for k in ("max_abs", "range", "rms", "E", "M")}, u))
+            row["reduction_pct"] = None if not np.isfinite(r.reduction_pct) else float(r.reduction_pct)
+            rows.append(row)
+        out: dict[str, Any] = {
+            "format": self.fmt, "model": self.model, "mode": self.table.mode, "unit": u,
+            "position_unit": self.position_unit,
+            "table": {"points": len(self.table), f"first_{self.position_unit}": float(self.table.position[0]),
+                      f"last_{self.position_unit}": float(self.table.position[-1]),
+                      f"step_{self.position_unit}": self.grid_step},
+            "basis": self.comparison.attrs.get("basis"), "points": self.comparison.attrs.get("n_points"),
+            "comparison": rows,
+            "residuals": residuals_json(self.residuals, u),
+            "notes": list(self.notes),
+        }
+        if self.scores is not None:
+            out["table_as_written"] = figures_json(self.scores.written, u)
+            out["model_on_its_nodes"] = figures_json(self.scores.nodes, u)
+            out["on_the_grid"] = None if self.scores.grid is None else figures_json(self.scores.grid, u)
+            out["costs"] = list(self.cost)
+        return out
 
 
 @dataclass(frozen=True)
@@ -112,27 +171,6 @@ def axis_data(result: Any) -> AxisData:
     return AxisData(*cols, axis_type, pos_unit, err_unit, scale)
 
 
-def _grid(d: AxisData, o: ExportOptions) -> np.ndarray | None:
-    x0, x1 = float(np.min(d.target)), float(np.max(d.target))
-    if o.step is None and o.fmt not in EQUIDISTANT:
-        return None
-    step = o.step
-    if step is None:  # mean spacing, rounded to 1 um (0.001 deg) so the controller can hold it exactly
-        step = max(round((x1 - x0) / (len(d.target) - 1), 3), 0.001)
-    if not step > 0:
-        raise UserError(f"--step must be positive, got {step:g}")
-    ref = x0 if o.reference_position is None else o.reference_position
-    if (max(x1, ref) - min(x0, ref)) / step > MAX_GRID_POINTS:
-        raise UserError(f"--step {step:g} gives more than {MAX_GRID_POINTS} table points; use a larger step")
-    if o.fmt == "fanuc":
-        return equidistant_grid(min(x0, ref), max(x1, ref), step, anchor=ref)
-    grid = equidistant_grid(x0, x1, step)
-    if o.fmt == "siemens" and o.siemens_modulo and abs(grid[-1] - grid[0] - 360.0) > 1e-6:
-        raise UserError(f"a modulo LEC table must span 360 deg; targets and --step give "
-                        f"{grid[0]:g} … {grid[-1]:g} deg")
-    return grid
-
-
 def _mode(o: ExportOptions) -> str:
     if o.fmt == "siemens":
         if o.mode not in (None, "backlash"):
@@ -143,10 +181,11 @@ def _mode(o: ExportOptions) -> str:
 
 
 def build_export(result: Any, options: ExportOptions, *, axis: str = "X",
-                 deviations: pd.DataFrame | None = None) -> Export:
+                 deviations: pd.DataFrame | None = None, cross_validation: bool = True) -> Export:
     """Build the controller file for ``options`` from an evaluation ``result``.  ``deviations``
     (the evaluation's columns ``target``, ``direction``, ``run``, ``deviation``) are the measured
-    points the residual comparison is evaluated on; None: the per-target means only."""
+    points the residuals are evaluated on; None: the per-target means only.
+    ``cross_validation`` False skips the leave-one-out refits (``residuals`` stays empty)."""
     o = options
     if o.fmt not in FORMATS:
         raise UserError(f"unknown format {o.fmt!r}; choose one of {', '.join(FORMATS)}")
@@ -156,18 +195,33 @@ def build_export(result: Any, options: ExportOptions, *, axis: str = "X",
     axis = o.axis or axis
     mode = _mode(o)
     model_options = {"tolerance": o.tolerance, "initial_maxima": o.initial_maxima, "degree": o.degree}
+    grid, grid_notes = table_grid(d, o)
     try:
-        grid = _grid(d, o)
         curves = fit_curves(d.target, d.mean_up, d.mean_down, model=o.model, mode=mode, **model_options)
         table = tabulate(curves, grid)
         comparison = compare_models(d.target, d.mean_up, d.mean_down, mode=mode, positions=grid,
                                     deviations=deviations, **model_options)
-        text, notes = _write(d, o, table, axis)
-        if o.model == "polynomial":
-            notes.append(_degree_note(curves, o.degree))
+        written = write_table(d, o, table, axis)
+        points = measured_points(d.target, d.mean_up, d.mean_down, deviations)
+        assert written.applied is not None
+        scores = score_tables(points, tabulate(curves, None), None if grid is None else table, written.applied)
+        residuals = (model_residuals(points, comparison, models=MODEL_NAMES, mode=mode, positions=grid,
+                                     **model_options) if cross_validation else {})
     except ValueError as exc:
         raise UserError(f"cannot build the {o.fmt} table: {exc}") from exc
-    return Export(text, table, comparison, d.position_unit, d.error_unit, SUFFIX[o.fmt], notes)
+    notes = grid_notes + written.notes
+    if o.model == "polynomial":
+        notes.append(_degree_note(curves, o.degree))
+    if written.offset_note:
+        notes.append(written.offset_note)
+    step = None if grid is None else float(grid[1] - grid[0])
+    cost = cost_lines(scores, d.error_unit, grid_text(step, d.position_unit))
+    return Export(written.text, table, comparison, d.position_unit, d.error_unit, SUFFIX[o.fmt], notes, o.fmt,
+                  o.model, step, scores, residuals, cost)
+
+
+def grid_text(step: float | None, position_unit: str) -> str:
+    return "model's nodes" if step is None else f"{round(step, 9):.12g} {position_unit} grid"
 
 
 def _degree_note(curves: Any, requested: int) -> str:
@@ -178,57 +232,10 @@ def _degree_note(curves: Any, requested: int) -> str:
     return f"polynomial degree {text} (of {requested} requested: min(requested, targets - 2), at least 1)"
 
 
-def _backlash_note(table: ErrorTable, d: AxisData) -> str:
-    return (f"mean reversal B = mean(up - down) = {table.backlash:.3f} {d.error_unit}; "
-            f"lost motion for the backlash parameter = {-table.backlash:.3f} {d.error_unit}")
-
-
-def _write(d: AxisData, o: ExportOptions, table: ErrorTable, axis: str) -> tuple[str, list[str]]:
-    notes: list[str] = []
-    if o.fmt == "linuxcnc":
-        notes.append(f"LinuxCNC: [JOINT_n] COMP_FILE = <this file>, COMP_FILE_TYPE = {o.linuxcnc_type}; "
-                     "BACKLASH is ignored when COMP_FILE is set (reversal is in the table)")
-        return linuxcnc_comp_text(table, file_type=o.linuxcnc_type, unit_scale=d.unit_scale), notes
-    if o.fmt == "csv":
-        return csv_text(table, position_unit=d.position_unit, error_unit=d.error_unit), notes
-    if o.fmt == "siemens":
-        values = table.error_up
-        if o.reference_position is not None:
-            values = values - np.interp(o.reference_position, table.position, values)
-        if o.siemens_modulo:
-            if d.axis_type != "rotary":
-                raise ValueError("modulo tables are for rotary axes")
-            values = values.copy()
-            values[0] = values[-1] = (values[0] + values[-1]) / 2.0
-        notes.append(_backlash_note(table, d) + " (Siemens MD32450 BACKLASH; check its sign on the machine)")
-        text = siemens_lec_text(
-            table.position, values, axis=o.siemens_axis or f"{axis}1", encoder=o.siemens_encoder,
-            unit_scale=d.unit_scale, decimals=6 if d.axis_type == "linear" else 8, modulo=o.siemens_modulo,
-            max_points=o.siemens_max_points, note=f"guideway LEC {o.model} model, mean of both directions",
-        )
-        return text, notes
-    # fanuc
-    if d.axis_type != "linear":
-        raise ValueError("rotary-axis pitch tables (parameter 3625) are not supported; use linuxcnc, siemens or csv")
-    ref = float(table.position[0]) if o.reference_position is None else o.reference_position
-    bidirectional = table.mode == "bidirectional"
-    pitch = fanuc_pitch_table(
-        table.error_up, table.error_down if bidirectional else None,
-        grid_mm=table.position, reference_position_mm=ref, detection_unit_um=o.fanuc_detection_unit_um,
-        magnification=o.fanuc_magnification, first_number=o.fanuc_first_point,
-        reference_number=o.fanuc_reference_point, negative_table_start=o.fanuc_negative_table,
-        reference_direction=o.fanuc_reference_direction,
-    )
-    note = ""
-    if not bidirectional:
-        lost = int(round_half_away(-table.backlash / o.fanuc_detection_unit_um))
-        note = f"backlash parameter 1851 = {lost} detection units of lost motion"
-        notes.append(_backlash_note(table, d) + f" (Fanuc parameter 1851 = {lost} detection units)")
-    return fanuc_text(pitch, axis=axis, note=note), notes
-
-
-def export_run(run_dir: Path | str, options: ExportOptions) -> tuple[Any, Export]:
-    """Load and evaluate a positioning run and build its export."""
+def export_run(run_dir: Path | str, options: ExportOptions, *, accept_out_of_range: bool = False
+               ) -> tuple[Any, Export]:
+    """Load and evaluate a positioning run and build its export (values outside the set-up's
+    validation limits refused unless ``accept_out_of_range``)."""
     from .evaluate import evaluate_run
     from .runstore import load_run
 
@@ -236,7 +243,7 @@ def export_run(run_dir: Path | str, options: ExportOptions) -> tuple[Any, Export
     if run.kind != "positioning":
         raise UserError(f"{run.path} is a {run.kind} run; compensation tables come from positioning runs "
                         "(ISO 230-2); pass a positioning run directory")
-    evaluation = evaluate_run(run)
+    evaluation = evaluate_run(run, accept_out_of_range=accept_out_of_range)
     setup = run.meta.get("setup") or {}
     axis = str(setup.get("axis_name") or run.meta.get("axis") or "X")
     return run, build_export(evaluation.result, options, axis=axis, deviations=evaluation.deviations)

@@ -1,7 +1,12 @@
-"""Live processing: an engine subscriber that turns every new straightness point
-into a surface height while the run goes on (the default decoupling method of
-processing.decoupling against the run's first point, so the live value is the
-value ``guideway process`` reports), for the terminal log and the UI."""
+"""Live processing: engine subscribers that evaluate every new point while the run goes on,
+with the code ``guideway process`` uses, for the terminal log and the UI:
+
+* :class:`LiveProfile` (straightness): the surface height of each station (the default
+  decoupling method of processing.decoupling against the run's first point);
+* :class:`LiveDeviation` (positioning): the deviation actual − target of each point after the
+  environmental compensation of processing.environment (the air index of the run's first point
+  as the datum index, as ``process`` takes it), so a raw reading that carries the air index and
+  the material expansion (hundreds of µm over a metre) is not shown as a deviation."""
 
 from __future__ import annotations
 
@@ -11,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from processing.decoupling import DECOUPLERS, DEFAULT_METHOD, Channels, Setup
+from processing.environment import EnvironmentSettings, angular_deviation_deg, compensate_linear_readings
 from processing.geometry import BlockGeometry
 
 HeightCallback = Callable[[int, int, float], None]  # (pass, station, height_um)
@@ -46,3 +52,55 @@ class LiveProfile:
         elif name == "retract":
             m = doc["match"]
             self.heights.pop((int(m.get("pass", 0)), int(m["station"])), None)
+
+
+DeviationCallback = Callable[[dict[str, Any], float, str], None]  # (row, deviation, label)
+ENVIRONMENT_COLUMNS = ("reading_mm", "air_temp_c", "air_pressure_hpa", "humidity_pct", "material_temp_c")
+ARCSEC_PER_DEG = 3600.0
+UM_PER_MM = 1000.0
+
+
+class LiveDeviation:
+    """Subscriber keeping ``deviations[(run, direction, target_index)]`` of a positioning run:
+    µm after environmental compensation (linear axes), arcsec (rotary axes, not air-compensated,
+    as ``process``).  ``label`` says which; ``first`` is the run's first point when a resumed run
+    starts.  A point the compensation cannot use (a missing air value) gets NaN and ``label``
+    says why."""
+
+    def __init__(self, axis_type: str, environment: dict[str, Any] | None,
+                 on_deviation: DeviationCallback | None = None, first: dict[str, Any] | None = None) -> None:
+        self.rotary = axis_type == "rotary"
+        self.settings = EnvironmentSettings.from_dict(environment)
+        self.on_deviation = on_deviation
+        self.first = first
+        self.unit = "arcsec" if self.rotary else "um"
+        self.deviations: dict[tuple[int, int, int], float] = {}
+        if self.rotary:
+            self.label = "angular, not air-compensated"
+        elif self.settings.readings_compensated:
+            self.label = "readings compensated by the controller"
+        else:
+            self.label = "environment-compensated"
+
+    def deviation(self, row: dict[str, Any]) -> tuple[float, str]:
+        """(deviation, label) of one points.csv row (see the class)."""
+        if self.rotary:
+            return float(angular_deviation_deg(row["reading_deg"], row["target_deg"])) * ARCSEC_PER_DEG, self.label
+        first = self.first if self.first is not None else row
+        cols = [np.array([float(first.get(c, np.nan)), float(row.get(c, np.nan))]) for c in ENVIRONMENT_COLUMNS]
+        try:
+            length, _ = compensate_linear_readings(*cols, self.settings)
+        except ValueError as exc:
+            return float("nan"), f"not compensated: {exc}"
+        return (float(length[-1]) - float(row["target_mm"])) * UM_PER_MM, self.label
+
+    def __call__(self, name: str, doc: dict[str, Any]) -> None:
+        if name != "event" or doc.get("stream", "primary") != "primary":
+            return
+        row = doc["data"]
+        if self.first is None:
+            self.first = row
+        value, label = self.deviation(row)
+        self.deviations[(int(row["run"]), int(row["direction"]), int(row["target_index"]))] = value
+        if self.on_deviation is not None:
+            self.on_deviation(row, value, label)

@@ -12,6 +12,7 @@ from processing.iso230_2 import LONG_AXIS_MM
 from .errors import SetupError
 from .iso230 import CYCLES, Stop, check_targets, cycle, linear_targets, rotary_targets
 from .setup import DeviceSetup, _Table, check_devices, read_toml
+from .tolerance import positioning_tolerance
 
 TRIGGERS = ("in-position", "stability", "manual")
 DIALECTS = ("fanuc", "linuxcnc")
@@ -103,6 +104,7 @@ class PositioningSetup:
     machine: str = ""
     operator: str = ""
     notes: str = ""
+    tolerance: dict[str, float] = field(default_factory=dict)  # [tolerance], acquisition.tolerance
 
     def __post_init__(self) -> None:
         if self.axis_type not in AXIS_TYPES:
@@ -145,6 +147,7 @@ class PositioningSetup:
             "gcode": {"dialect": self.dialect, "program_number": self.program_number},
             "environment": self.environment.to_dict(),
             "devices": asdict(self.devices),
+            **({"tolerance": dict(self.tolerance)} if self.tolerance else {}),
         }
 
     def header(self) -> dict[str, Any]:
@@ -219,13 +222,15 @@ def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> 
     sim = top.table("simulation")
     s = SimulatedAxisSetup()
     simulation = SimulatedAxisSetup(**{k: sim.get(k, float, getattr(s, k)) for k in asdict(s)})
+    tolerance = positioning_tolerance(top.table("tolerance").data, "arcsec" if axis_type == "rotary" else "um",
+                                      source)
     for t in (top, ax, tr, en, ctl, gc, sim):
         t.check_unknown()
     setup = PositioningSetup(
         axis_name=name, axis_type=axis_type, targets=targets, runs=runs, cycle=cyc, overrun=overrun,
         feed_per_min=feed, datum=datum, trigger=trigger, environment=environment, devices=devices,
         dialect=dialect, program_number=program_number,
-        max_deviation=max_dev, simulation=simulation, long_axis=long_axis, **text,
+        max_deviation=max_dev, simulation=simulation, long_axis=long_axis, tolerance=tolerance, **text,
     )
     if explicit is not None:  # generated targets follow the rule by construction
         span = end - start if end is not None and axis_type == "linear" else None

@@ -83,8 +83,8 @@ def profile_figure(result: StraightnessResult) -> Figure:
     for (name, fit), style in zip(result.lines.items(), ("--", ":", "-."), strict=False):
         unc = f" +/- {mc[name]:.3f}" if name in mc else ""
         ax.plot(xx, fit.intercept_um + fit.slope_um_per_mm * xx, style,
-                label=f"{LINE_LABELS.get(name, name)}: straightness {fit.straightness_um:.3f}{unc} um")
-    ax.set_ylabel("height (um), +Y")
+                label=f"{LINE_LABELS.get(name, name)}: straightness {fit.straightness_um:.3f}{unc} µm")
+    ax.set_ylabel("height (µm), +Y")
     ax.set_title(f"Guideway base-surface profile ({result.method} decoupling)")
     ax.grid(True, alpha=0.3)
     legend_above_data(ax, ncol=2)
@@ -96,9 +96,9 @@ def profile_figure(result: StraightnessResult) -> Figure:
         ax2.plot(x, d, "o-", color="black", lw=1.2, ms=4, label="deviation from the minimum-zone line")
         half = fit.straightness_um / 2
         ax2.axhline(half, color="tab:green", ls="-.", lw=1)
-        ax2.axhline(-half, color="tab:green", ls="-.", lw=1, label=f"zone: {fit.straightness_um:.3f} um")
+        ax2.axhline(-half, color="tab:green", ls="-.", lw=1, label=f"zone: {fit.straightness_um:.3f} µm")
         legend_above_data(ax2, ncol=3)
-    ax2.set_ylabel("deviation (um)")
+    ax2.set_ylabel("deviation (µm)")
     ax2.set_xlabel("x (mm), position of the sensor sample point from the first station")
     ax2.grid(True, alpha=0.3)
     fig.tight_layout()

@@ -15,6 +15,8 @@ from matplotlib.figure import Figure  # noqa: E402
 from .results import legend_above_data, save_figure  # noqa: E402
 from .runstore import write_json_atomic, write_text_atomic  # noqa: E402
 
+UNIT_LABELS = {"um": "µm", "arcsec": "arcsec"}  # the plots name units as the report's tables do
+
 if TYPE_CHECKING:
     from .evaluate_positioning import PositioningEvaluation
 
@@ -70,8 +72,9 @@ def positioning_figure(evaluation: PositioningEvaluation) -> Figure:
     families = (("A", "A_up", "A_down"), ("E", "E_up", "E_down"), ("R", "R_up", "R_down"), ("B",))
     shown = [next((q for q in fam if np.isfinite(a[q])), None) for fam in families]
     vals = ", ".join(f"{q} = {a[q]:.3f}" for q in shown if q is not None)
-    ax.set_title(f"{r.edition} positioning ({r.directions}): {vals} {r.unit}", fontsize=10)
-    ax.set_ylabel(f"deviation actual - target ({r.unit})")
+    unit = UNIT_LABELS.get(r.unit, r.unit)
+    ax.set_title(f"{r.edition} positioning ({r.directions}): {vals} {unit}", fontsize=10)
+    ax.set_ylabel(f"deviation actual - target ({unit})")
     ax.grid(True, alpha=0.3)
     legend_above_data(ax, ncol=3)
     rev = pt["reversal"].to_numpy()
@@ -80,7 +83,7 @@ def positioning_figure(evaluation: PositioningEvaluation) -> Figure:
     if not np.isfinite(rev).any():
         axb.text(0.5, 0.5, "no reversal: one direction measured", transform=axb.transAxes, ha="center",
                  va="center", fontsize=9, color="0.3")
-    axb.set_ylabel(f"reversal B_i ({r.unit})")
+    axb.set_ylabel(f"reversal B_i ({unit})")
     axb.set_xlabel(f"target ({r.target_unit})")
     axb.grid(True, alpha=0.3)
     fig.tight_layout()

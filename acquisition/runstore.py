@@ -18,7 +18,7 @@ import io
 import json
 import math
 import os
-import tempfile
+import secrets
 import time
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -71,12 +71,26 @@ def _fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
+def _create_temp(path: Path) -> tuple[int, str]:
+    """A new temporary file next to ``path``, opened for writing, with the mode an ordinary
+    ``open()`` gives (0666 less the user's umask): ``tempfile.mkstemp`` would make it 0600, and
+    the rename would give results, reports and tables that mode."""
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
+    for _ in range(100):
+        tmp = str(path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp")
+        try:
+            return os.open(tmp, flags, 0o666), tmp
+        except FileExistsError:
+            continue
+    raise FileExistsError(f"no free temporary file name next to {path}")  # pragma: no cover
+
+
 def write_text_atomic(path: Path | str, text: str) -> None:
     """Replace ``path`` with ``text`` (UTF-8, ``\\n`` line ends): a temporary file in the same
     directory, fsynced, renamed over ``path``, directory fsynced.  A reader sees the old or the
     new file, never a half-written one."""
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = _create_temp(path)
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
             f.write(text)

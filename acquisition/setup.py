@@ -17,6 +17,7 @@ from processing.geometry import BlockGeometry
 
 from .errors import SetupError
 from .rig import SENSOR_DRIVERS
+from .tolerance import straightness_tolerance
 
 UNCERTAINTY_KEYS = ("sensor_noise_um", "sensor_resolution_um", "straightness_um", "angle_urad",
                     "position_um", "offset_mm", "step_mm")
@@ -99,6 +100,7 @@ class StraightnessSetup:
     axis: str = ""
     operator: str = ""
     notes: str = ""
+    tolerance: dict[str, Any] = field(default_factory=dict)  # [tolerance], acquisition.tolerance
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.block_length_mm) and self.block_length_mm > 0):
@@ -137,6 +139,8 @@ class StraightnessSetup:
         }
         if self.uncertainty:
             out["uncertainty"] = dict(self.uncertainty)
+        if self.tolerance:
+            out["tolerance"] = dict(self.tolerance)
         return out
 
     def header(self) -> dict[str, Any]:
@@ -302,12 +306,13 @@ def straightness_setup_from_dict(data: dict[str, Any], source: str = "setup") ->
     )
     unc = top.table("uncertainty")
     uncertainty = {k: unc.get(k, float) for k in list(unc.data)}
+    tolerance = straightness_tolerance(top.table("tolerance").data, source)
     for t in (top, blk, geo, sen, ctl, wu, va):
         t.check_unknown()
     return StraightnessSetup(
         block_length_mm=length, stations=stations, geometry=geometry, devices=devices,  # type: ignore[arg-type]
         samples_per_reading=samples, return_pass=return_pass, warmup=warmup, validation=validation,
-        uncertainty=uncertainty, **text,
+        uncertainty=uncertainty, tolerance=tolerance, **text,
     )
 
 
@@ -334,6 +339,7 @@ def straightness_setup_from_run(meta: dict[str, Any]) -> StraightnessSetup:
             warmup=WarmupSetup(**s.get("warmup", {"enabled": False})),
             validation=ValidationSetup(**val),
             uncertainty=dict(s.get("uncertainty", {})),
+            tolerance=dict(s.get("tolerance", {})),
             machine=meta.get("machine", ""), axis=meta.get("axis", ""),
             operator=meta.get("operator", ""), notes=meta.get("notes", ""),
         )

@@ -184,6 +184,45 @@ def parse_faults(spec: str | None) -> FaultPlan:
         raise UserError(str(exc)) from exc
 
 
+# Sensor requests per averaged sample in a run: the LK-G and HL-G1 drivers poll one value per
+# command line; the ILD1420 streams its values (no request; its commands are sent at open only).
+# tests/acquisition/test_fault_plans.py counts them on the simulated devices.
+REQUESTS_PER_SAMPLE = {"keyence-lkg": 1, "panasonic-hlg1": 1, "me-ild1420": 0}
+
+
+def refuse_faults_that_cannot_fire(plan: FaultPlan | None, *, sensor: bool, sensor_requests: int | None = None
+                                   ) -> None:
+    """A one-line :class:`UserError` for fault entries that certainly cannot fire.
+
+    ``sensor`` False: the run has no displacement sensor, so no sensor entry can fire.
+    ``sensor_requests``: how many requests the sensor gets in a fault-free run (None: not known,
+    e.g. an operator may redo stations).  Requests beyond it come only from retries after a fault,
+    so when every entry is a sensor entry past it, none can fire.  Anything less certain is left
+    to :func:`fault_report` at the end of the run."""
+    if plan is None or not plan.faults:
+        return
+    if not sensor:
+        f = next((f for f in plan.faults if f.device == "sensor"), None)
+        if f is not None:
+            raise UserError(f"--faults {f.spec()} cannot fire: this run has no displacement sensor; "
+                            "inject controller faults")
+        return
+    if sensor_requests is not None and all(f.device == "sensor" and f.at > sensor_requests for f in plan.faults):
+        f = plan.faults[0]
+        raise UserError(f"--faults {f.spec()} cannot fire: a run of this set-up asks the sensor {sensor_requests} "
+                        f"times; give N <= {sensor_requests}")
+
+
+def fault_report(plan: FaultPlan | None) -> dict[str, Any] | None:
+    """run.json ``fault_plan``: the spec, the requests each device got and the entries that did
+    not fire (None without faults)."""
+    if plan is None or not plan.faults:
+        return None
+    return {"spec": ",".join(f.spec() for f in plan.faults),
+            "requests": {d: plan.requests(d) for d in ("sensor", "controller")},
+            "not_fired": [f.spec() for f in plan.unfired()]}
+
+
 def _geometry_of(b: BlockSetup, sign: SensorSign) -> BlockGeometry:
     """Nominal set-up geometry of a simulated block: mirror at P, sensor point Q at the stand-off."""
     q = tuple(b.sensor_head_mm[i] + b.standoff_mm * b.beam[i] for i in range(3))
@@ -310,6 +349,7 @@ class SimulatedMachine:
     axis: MachineAxis
     controller_url: str
     _modbus: ModbusServerThread
+    faults: FaultPlan | None = None
 
     def cycle_start(self, **_: Any) -> None:
         """What the simulated technician does when asked to press Cycle Start."""
@@ -372,7 +412,7 @@ def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bo
         axis.index = measured[min(start_at, len(measured) - 1)] - 1  # restart: the next block is that target
         axis.commanded = stops[axis.index].position
     modbus = ModbusServerThread(emulator.device())
-    return SimulatedMachine(axis, modbus.url, modbus)
+    return SimulatedMachine(axis, modbus.url, modbus, plan)
 
 
 @dataclass

@@ -66,6 +66,11 @@ class Fault:
     def active(self, n: int) -> bool:
         return n >= self.at and (self.count is None or n < self.at + self.count)
 
+    def spec(self) -> str:
+        """The entry as written in a spec (``sensor:garbage@12x2``)."""
+        return (f"{self.device}:{self.kind}@{self.at}" + (f"x{self.count}" if self.count is not None else "")
+                + (f"={self.arg}" if self.arg is not None else ""))
+
 
 class FaultSpecError(ValueError):
     """A fault spec that cannot be parsed."""
@@ -77,6 +82,7 @@ class FaultPlan:
     def __init__(self, faults: tuple[Fault, ...] = ()) -> None:
         self.faults = faults
         self._counts: dict[str, int] = {}
+        self._fired: set[int] = set()  # indices into faults of the entries that applied to a request
         self._lock = threading.Lock()
 
     @classmethod
@@ -105,7 +111,11 @@ class FaultPlan:
         with self._lock:
             n = self._counts.get(device, 0) + 1
             self._counts[device] = n
-        return self.fault_for(device, n)
+        fault = self.fault_for(device, n)
+        if fault is not None:
+            with self._lock:
+                self._fired.add(next(i for i, f in enumerate(self.faults) if f is fault))
+        return fault
 
     def fault_for(self, device: str, n: int) -> Fault | None:
         """The fault that applies to the ``n``-th request to ``device`` (counts nothing)."""
@@ -116,3 +126,8 @@ class FaultPlan:
 
     def requests(self, device: str) -> int:
         return self._counts.get(device, 0)
+
+    def unfired(self) -> tuple[Fault, ...]:
+        """The entries that have not applied to any request yet."""
+        with self._lock:
+            return tuple(f for i, f in enumerate(self.faults) if i not in self._fired)

@@ -195,3 +195,10 @@ def compensate_points(points: pd.DataFrame, settings: EnvironmentSettings) -> tu
     length = np.empty_like(length_sorted)
     length[order] = length_sorted
     return length, info
+
+
+def angular_deviation_deg(reading_deg: np.ndarray | float, target_deg: np.ndarray | float) -> np.ndarray:
+    """reading − target of a rotary axis wrapped to (−180, 180] deg, so 359.9999 read at target 0
+    is a small negative deviation (angular readings are not air-compensated, see above)."""
+    diff = np.asarray(reading_deg, dtype=float) - np.asarray(target_deg, dtype=float)
+    return -((-diff + 180.0) % 360.0 - 180.0)

@@ -8,8 +8,9 @@ that function's segment machinery: 20x faster at 1e6 samples) at the mean
 station spacing, zero-padded to up to 64 times its length (at most about 2^21
 points) so the peak frequency is located between the DFT bins.  With that scaling a sine of amplitude A gives a
 peak of A^2/2, so the amplitude reported is sqrt(2 P).  The frequency
-resolution is one cycle per record length: wavelengths longer than the
-measured length and shorter than two spacings (Nyquist) are not reported.
+resolution is one cycle per record length: wavelengths not shorter than the
+measured length (x[-1] - x[0]) and shorter than two spacings (Nyquist) are not
+reported.
 """
 
 from __future__ import annotations
@@ -50,7 +51,8 @@ def spectrum(x_mm: np.ndarray, h_um: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def dominant_wavelengths(x_mm: np.ndarray, h_um: np.ndarray, count: int = 3) -> list[Peak]:
-    """Up to ``count`` spectral peaks, largest first, at least one resolution apart.
+    """Up to ``count`` spectral peaks, largest first, at least one resolution apart, with
+    wavelengths shorter than the measured length x[-1] − x[0] (and longer than two spacings).
 
     Needs at least 4 points; returns [] for a profile with no variation.
     """
@@ -59,7 +61,8 @@ def dominant_wavelengths(x_mm: np.ndarray, h_um: np.ndarray, count: int = 3) -> 
     f, amp, dx = spectrum(x_mm, h_um)
     n = len(x_mm)
     record = n * dx
-    ok = (f >= 1.0 / record) & (f < 0.5 / dx)
+    length = (n - 1) * dx  # the measured length: a wavelength that long is not resolved
+    ok = (f > 1.0 / length) & (f < 0.5 / dx)
     i = np.flatnonzero(ok)
     if len(i) < 3 or np.max(amp[i]) <= 1e-9 * (1.0 + np.max(np.abs(h_um))):  # numerically flat
         return []

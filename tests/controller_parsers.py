@@ -186,6 +186,20 @@ class FanucPitch:
     def correction_um(self, pos_mm: np.ndarray, ref_mm: float, direction: int, unit_um: float) -> np.ndarray:
         return self.absolute_counts(pos_mm, ref_mm, direction) * unit_um * self.params["3623"]
 
+    def point_positions_mm(self, ref_mm: float) -> np.ndarray:
+        """Positions of points 3621 − 1 … 3622 (the first one is where the first increment starts)."""
+        p = self.params
+        n = np.arange(int(p["3621"]) - 1, int(p["3622"]) + 1)
+        return ref_mm + (n - int(p["3620"])) * p["3624"]
+
+    def correction_um_anywhere(self, pos_mm: np.ndarray, ref_mm: float, direction: int,
+                               unit_um: float) -> np.ndarray:
+        """The correction at any position: point N's increment is output while the axis crosses
+        from point N−1 to N, i.e. spread over the interval (linear between the points); outside
+        the compensated stroke nothing more is output (the end values hold)."""
+        at = self.point_positions_mm(ref_mm)
+        return np.interp(np.asarray(pos_mm, dtype=float), at, self.correction_um(at, ref_mm, direction, unit_um))
+
 
 def read_fanuc(text: str) -> FanucPitch:
     params: dict[str, float] = {}

@@ -21,7 +21,11 @@ ERR_DN_UM = [1.5, 3.0, 4.0, 3.0, 0.5]  # − approach
 SCATTER_UM = [-0.2, -0.1, 0.0, 0.1, 0.2]  # per run, mean zero: the means are exactly the above
 
 
-def write_run(run_dir: Path) -> None:
+def write_run(run_dir: Path, targets_mm: list[float] = TARGETS_MM, err_up_um: list[float] = ERR_UP_UM,
+              err_dn_um: list[float] = ERR_DN_UM, scatter_um: list[float] = SCATTER_UM) -> None:
+    """A complete positioning run: target i, run j, direction d reads targets_mm[i] + (err_d[i] +
+    scatter_um[j]) um (scatter_um[j] may also be a list, one value per target)."""
+    TARGETS_MM, ERR_UP_UM, ERR_DN_UM, SCATTER_UM = targets_mm, err_up_um, err_dn_um, scatter_um  # noqa: N806
     run_dir.mkdir()
     meta = {
         "format": "guideway-run", "version": 2, "kind": "positioning", "status": "complete",
@@ -44,7 +48,8 @@ def write_run(run_dir: Path) -> None:
             order = range(len(TARGETS_MM)) if direction == 1 else reversed(range(len(TARGETS_MM)))
             for i in order:
                 t += 10.0
-                reading = TARGETS_MM[i] + (errors[i] + scatter) / 1000.0
+                off = scatter[i] if isinstance(scatter, list) else scatter
+                reading = TARGETS_MM[i] + (errors[i] + off) / 1000.0
                 rows.append(",".join(str(v) for v in (j, direction, i + 1, TARGETS_MM[i], repr(reading), t,
                                                       0, 0, 0, 0, 0, 20.0, 1013.25, 50.0, 20.0)))
     (run_dir / "points.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")

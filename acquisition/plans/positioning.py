@@ -200,9 +200,10 @@ def positioning_plan(setup: PositioningSetup, metadata: dict[str, Any],
             yield Record(positioning_row(s, reading, t0, ifm, u))
             yield Annotate("progress", {"index": i, "run": s.run, "direction": s.direction,
                                         "target_index": s.target_index})
+            # the raw reading, not a deviation: it still carries the air index and the material
+            # expansion (acquisition.live.LiveDeviation gives the compensated deviation)
             yield Log(f"run {s.run} {ARROW[s.direction]:8s} target {s.target_index:3d}  {s.position:10.4f} {u}  "
-                      f"deviation {(reading - s.position) * (3600 if u == 'deg' else 1000):+8.2f} "
-                      f"{'arcsec' if u == 'deg' else 'um'}")
+                      f"raw reading {reading:.5f} {u}")
         if event is not None:
             yield AcknowledgeInPosition(event.count)
             last_count = event.count

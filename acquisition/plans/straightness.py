@@ -146,8 +146,29 @@ def resume_point(meta: dict[str, Any], rows: list[dict[str, Any]], steps: list[S
     return ResumePoint(str(meta.get("uid", "")), t0, max(done, default=-1) + 1, points, skipped)
 
 
+def window_drift(ifm_hist: list[tuple[float, float]], sen_hist: list[float], window: int) -> tuple[float, float]:
+    """Peak-to-peak drift (um) of the interferometer (the larger of straightness Y and Z) and of
+    the sensor over the last ``window`` readings (fewer at the start; NaN before two)."""
+    if len(sen_hist) < 2:
+        return math.nan, math.nan
+    win_i, win_s = ifm_hist[-window:], sen_hist[-window:]
+    return max(max(c) - min(c) for c in zip(*win_i, strict=True)), max(win_s) - min(win_s)
+
+
+def drift_text(w: WarmupSetup, readings: int, drift_ifm: float, drift_sensor: float, elapsed: float) -> str:
+    """The warm-up line shown after every reading: drift so far against the limits."""
+    if not math.isfinite(drift_ifm):
+        return f"warm-up {elapsed:.0f} s: reading {readings} of at least {w.window}"
+    ok = "within" if drift_ifm <= w.max_drift_ifm_um and drift_sensor <= w.max_drift_sensor_um else "above"
+    span = min(readings, w.window)
+    return (f"warm-up {elapsed:.0f} s: drift over the last {span} of {w.window} readings: interferometer "
+            f"{drift_ifm:.2f} / {w.max_drift_ifm_um:g} um, sensor {drift_sensor:.2f} / {w.max_drift_sensor_um:g} um "
+            f"({ok} the limits)")
+
+
 def warmup(w: WarmupSetup, samples: int) -> Generator[Message, Any, dict[str, Any]]:
-    """Watch interferometer and sensor drift until stable or overridden; return run.json ``warmup``."""
+    """Watch interferometer and sensor drift until stable or overridden; return run.json ``warmup``.
+    After every reading the drift so far is logged against the limits."""
     ifm_hist: list[tuple[float, float]] = []
     sen_hist: list[float] = []
     elapsed = since_prompt = 0.0
@@ -160,13 +181,11 @@ def warmup(w: WarmupSetup, samples: int) -> Generator[Message, Any, dict[str, An
         if ifm.ok and sen.ok:
             ifm_hist.append((ifm.stry_um, ifm.strz_um))
             sen_hist.append(sen.mean_mm * 1000.0)
-        if len(sen_hist) >= w.window:
-            win_i, win_s = ifm_hist[-w.window:], sen_hist[-w.window:]
-            drift_ifm = max(max(c) - min(c) for c in zip(*win_i, strict=True))
-            drift_sensor = max(win_s) - min(win_s)
-            if drift_ifm <= w.max_drift_ifm_um and drift_sensor <= w.max_drift_sensor_um:
-                stable, overridden = True, False
-                break
+        drift_ifm, drift_sensor = window_drift(ifm_hist, sen_hist, w.window)
+        yield Log(drift_text(w, len(sen_hist), drift_ifm, drift_sensor, elapsed))
+        if len(sen_hist) >= w.window and drift_ifm <= w.max_drift_ifm_um and drift_sensor <= w.max_drift_sensor_um:
+            stable, overridden = True, False
+            break
         if since_prompt >= w.timeout_s:
             answer = yield Prompt(
                 f"Warm-up not stable after {elapsed:.0f} s (drift {drift_ifm:.2f} um interferometer, "

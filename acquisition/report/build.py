@@ -15,7 +15,15 @@ from typing import Any
 from ..errors import RunFormatError, UserError
 from ..evaluate import evaluate_run
 from ..runstore import LoadedRun, load_run, write_text_atomic
-from .common import conventions_section, environment_section, instruments_section, run_section, status_section
+from .common import (
+    conventions_section,
+    environment_section,
+    instruments_section,
+    out_of_range_section,
+    run_section,
+    simulated_banner,
+    status_section,
+)
 from .html import HtmlPage
 
 
@@ -32,7 +40,10 @@ def report_command(run_dir: Path | str, out: Path | str | None, options: dict[st
     if out is not None:
         args += ["--out", str(out)]
     for key, value in options.items():
-        args += [f"--{key.replace('_', '-')}", str(value)]
+        if value is True:  # a flag
+            args.append(f"--{key.replace('_', '-')}")
+        elif value is not False:
+            args += [f"--{key.replace('_', '-')}", str(value)]
     return shlex.join(args)
 
 
@@ -53,14 +64,20 @@ def render_report(run: LoadedRun, evaluation: Any, *, not_evaluated: str | None 
     """The HTML document of ``run`` and its ``evaluation`` (None: ``not_evaluated`` says why)."""
     from ..evaluate_positioning import PositioningEvaluation
     from ..evaluate_straightness import StraightnessEvaluation
-    from .positioning import positioning_sections
-    from .straightness import straightness_sections
+    from .positioning import positioning_headline, positioning_sections
+    from .straightness import straightness_headline, straightness_sections
 
     m = run.meta
     axis = m.get("axis") or (m.get("setup") or {}).get("axis_name") or ""
     title = f"guideway {run.kind} report — {m.get('machine') or 'machine'}" + (f", axis {axis}" if axis else "")
     page = HtmlPage(title)
+    simulated_banner(page, run)
     status_section(page, run)
+    out_of_range_section(page, evaluation)
+    if isinstance(evaluation, StraightnessEvaluation):
+        straightness_headline(page, evaluation)
+    elif isinstance(evaluation, PositioningEvaluation):
+        positioning_headline(page, evaluation)
     run_section(page, run)
     if isinstance(evaluation, StraightnessEvaluation):
         straightness_sections(page, evaluation)

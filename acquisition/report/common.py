@@ -53,6 +53,28 @@ def run_section(page: HtmlPage, run: LoadedRun) -> None:
         page.paragraph(f"Warning: {w}", "note")
 
 
+# What the devices report about themselves (Modbus read device identification of the
+# controller; GETINFO of the ILD1420); anything else in run.json's instruments comes from the
+# driver or the set-up (a family name for a sensor without an identity query, a station number).
+DEVICE_IDENTITY_KEYS = {"vendor", "product_code", "revision", "vendor_url", "product", "model",
+                        "user_application_name", "serial"}
+
+
+def reported_identity(role: str, info: dict[str, Any]) -> tuple[list[tuple[str, Any]], list[tuple[str, Any]]]:
+    """(what the device reported, what the driver / set-up says) of one run.json instrument."""
+    from ..rig import SENSOR_DRIVERS
+
+    rest = [(k, v) for k, v in info.items() if k not in ("protocol", "endpoint")]
+    if role == "sensor":
+        driver = SENSOR_DRIVERS.get(str(info.get("protocol", "")))
+        asks = bool(getattr(driver, "identity_query", False))
+        return (rest, []) if asks else ([], rest)
+    if role == "interferometer":
+        return [kv for kv in rest if kv[0] in DEVICE_IDENTITY_KEYS], [kv for kv in rest if kv[0] not in
+                                                                      DEVICE_IDENTITY_KEYS]
+    return [], rest  # the XY-MD02 transmitter has no identity registers
+
+
 def instruments_section(page: HtmlPage, run: LoadedRun) -> None:
     instruments = run.meta.get("instruments") or {}
     page.heading("Instruments")
@@ -61,9 +83,38 @@ def instruments_section(page: HtmlPage, run: LoadedRun) -> None:
         return
     rows = []
     for role, info in instruments.items():
-        details = ", ".join(f"{k}: {v}" for k, v in info.items() if k not in ("protocol", "endpoint"))
-        rows.append((role, info.get("protocol", ""), info.get("endpoint", ""), details))
-    page.table(("device", "protocol", "endpoint", "identity"), rows, text_columns=(0, 1, 2, 3))
+        reported, other = reported_identity(role, info)
+        rows.append((role, info.get("protocol", ""), info.get("endpoint", ""),
+                     ", ".join(f"{k}: {v}" for k, v in reported) or "not reported by the device",
+                     ", ".join(f"{k}: {v}" for k, v in other) or "—"))
+    page.table(("device", "protocol", "endpoint", "identity reported by the device", "driver / set-up"), rows,
+               text_columns=(0, 1, 2, 3, 4))
+    page.paragraph("The protocol is what the tool spoke; the identity is what the device answered to its "
+                   "identification query. A protocol without an identity query says nothing about which device "
+                   "answered: the driver / set-up column names only the family it was configured for.", "note")
+
+
+SIMULATOR_VENDOR = "guideway-sim"  # what the simulated controller answers to device identification
+
+
+def simulated(meta: dict[str, Any]) -> str | None:
+    """Why the run is a simulation (None for a run on real devices): run.json ``simulation``
+    (written by ``--simulate`` and ``demo``), or a controller identifying as the simulator."""
+    sim = meta.get("simulation")
+    if isinstance(sim, dict):
+        noise = sim.get("noise")
+        return (f"simulated devices (seed {sim.get('seed', '?')}, instrument noise "
+                f"{'on' if noise else 'off' if noise is not None else '?'})")
+    for info in (meta.get("instruments") or {}).values():
+        if isinstance(info, dict) and info.get("vendor") == SIMULATOR_VENDOR:
+            return "the controller identified itself as the guideway simulator"
+    return None
+
+
+def simulated_banner(page: HtmlPage, run: LoadedRun) -> None:
+    why = simulated(run.meta)
+    if why is not None:
+        page.banner(f"SIMULATED RUN — not a measurement of a machine ({why})")
 
 
 def environment_section(page: HtmlPage, run: LoadedRun) -> None:
@@ -121,3 +172,32 @@ def status_section(page: HtmlPage, run: LoadedRun) -> None:
     reason = run.meta.get("end_reason")
     page.alert(f"Run status: {status or 'unknown'}" + (f" ({reason})" if reason else "") +
                f". {recorded} recorded; the results below cover only the points recorded.")
+
+
+def out_of_range_section(page: HtmlPage, evaluation: Any) -> None:
+    """A boxed notice listing the values outside the set-up's validation limits that were
+    evaluated anyway (``--accept-out-of-range``)."""
+    found = getattr(evaluation, "out_of_range", ())
+    if not found:
+        return
+    page.alert(f"{len(found)} value(s) outside the set-up's validation limits were evaluated anyway "
+               "(--accept-out-of-range): the results below may be meaningless.")
+    page.table(("point", "column", "value", "limit"), [(f.where, f.column, f.value, f.limit) for f in found],
+               digits=6, text_columns=(0, 1, 3))
+
+
+def verdict_section(page: HtmlPage, verdict: Any, what: str) -> None:
+    """The pass/fail verdict against the set-up's [tolerance] (acquisition.tolerance), or why
+    there is none; ``what`` names the keys a tolerance would need."""
+    if verdict is None:
+        page.paragraph(f"No tolerance in the set-up ([tolerance] {what}): no pass/fail verdict.", "note")
+        return
+    cls = {"pass": "verdict-pass", "fail": "verdict-fail"}.get(verdict.result, "verdict-open")
+    page.paragraph(f"Verdict: {verdict.result.upper()}", f"headline {cls}")
+    rows = [(c.quantity, c.value, c.tolerance, UNIT_LABELS.get(c.unit, c.unit), c.uncertainty,
+             c.result + (" (within U of the limit: not proven, ISO 14253-1)" if c.within_uncertainty else ""))
+            for c in verdict.checks]
+    page.table(("quantity", "value", "tolerance", "unit", "U, k = 2", "result"), rows, text_columns=(0, 3, 5))
+
+
+UNIT_LABELS = {"um": "µm", "arcsec": "arcsec", "mm": "mm", "deg": "°", "urad": "µrad"}

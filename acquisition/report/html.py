@@ -28,6 +28,10 @@ figcaption { font-size: .85em; color: #444; }
 img { max-width: 100%; }
 .note { font-size: .85em; color: #444; }
 .alert { border: 3px solid #b00; background: #fee; color: #600; font-weight: bold; padding: .5em .8em; }
+.banner { border: 4px solid #a60; background: #fff4d6; color: #630; font-size: 1.4em; font-weight: bold;
+          text-align: center; padding: .4em .8em; letter-spacing: .05em; }
+.headline { font-size: 1.25em; font-weight: bold; margin: .4em 0; }
+.verdict-pass { color: #060; } .verdict-fail { color: #b00; } .verdict-open { color: #a60; }
 h3 { font-size: 1em; margin-top: 1.2em; }
 .footer { margin-top: 2em; border-top: 1px solid #999; }
 @media print {
@@ -35,7 +39,7 @@ h3 { font-size: 1em; margin-top: 1.2em; }
   h2, h3 { page-break-after: avoid; }
   tr { page-break-inside: avoid; }
   thead { display: table-header-group; }  /* header row repeated on every printed page */
-  .alert { -webkit-print-color-adjust: exact; print-color-adjust: exact; }
+  .alert, .banner { -webkit-print-color-adjust: exact; print-color-adjust: exact; }
 }
 """
 
@@ -102,6 +106,10 @@ class HtmlPage:
     def alert(self, text: str) -> None:
         """A boxed warning the reader cannot miss (also when printed)."""
         self._parts.append(f'<p class="alert">{esc(text)}</p>')
+
+    def banner(self, text: str) -> None:
+        """A large notice at the top of the page (a simulated run)."""
+        self._parts.append(f'<p class="banner">{esc(text)}</p>')
 
     def image(self, png: bytes, caption: str) -> None:
         data = base64.b64encode(png).decode("ascii")

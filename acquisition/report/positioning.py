@@ -4,15 +4,34 @@ after compensation per model.  Deviations in µm (linear) or arcsec (rotary)."""
 
 from __future__ import annotations
 
+import math
+
 from processing.iso230_2 import AXIS_QUANTITIES, QUANTITY_NAMES, VDI3441_NAMES, VDI3441_QUANTITIES
 
 from ..errors import UserError
 from ..evaluate_positioning import PositioningEvaluation
 from ..export import ExportOptions, basis_text, build_export
+from ..export_residuals import CV_LABELS
 from ..results_positioning import positioning_figure
+from .common import verdict_section
 from .html import HtmlPage, figure_png
 
 UNIT_TEXT = {"um": "µm", "arcsec": "arcsec", "mm": "mm", "deg": "°"}
+
+
+HEADLINE_FAMILIES = (("A", "A_up", "A_down"), ("E", "E_up", "E_down"), ("R", "R_up", "R_down"), ("M",), ("B",))
+
+
+def positioning_headline(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
+    """The ISO 230-2 values of the axis in one line (bidirectional, else the direction measured)
+    and the verdict against the set-up's tolerance."""
+    r = evaluation.result
+    a = r.axis
+    shown = [next((q for q in fam if math.isfinite(a.get(q, math.nan))), None) for fam in HEADLINE_FAMILIES]
+    values = ", ".join(f"{q} = {a[q]:.3f}" for q in shown if q is not None)
+    page.heading("Result")
+    page.paragraph(f"{r.edition} (k = {r.k:g}): {values or 'no value evaluable'} {UNIT_TEXT[r.unit]}", "headline")
+    verdict_section(page, evaluation.verdict, f"A_{r.unit}, E_{r.unit}, R_{r.unit}, M_{r.unit}, B_{r.unit}, ...")
 
 
 def positioning_sections(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
@@ -126,6 +145,33 @@ def residual_section(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
                    "nodes (as `guideway export --format csv`); the controller interpolates linearly between table "
                    "points. 'none' = uncompensated; E, M = ISO 230-2 E and M of the compensated per-target means.",
                    "note")
+    cross_validation_table(page, export.residuals, u)
+
+
+def cross_validation_table(page: HtmlPage, residuals: dict, u: str) -> None:
+    """In-sample against leave-one-run-out and leave-one-target-out residual of every model."""
+    page.heading("Residual out of sample, per model", 3)
+    kinds = ("in_sample", "leave_one_run_out", "leave_one_target_out")
+    rows, notes = [], {}
+    for name, res in residuals.items():
+        cells: list[object] = [name]
+        for k in kinds:
+            o = res[k]
+            cells += [getattr(o, "rms", None), getattr(o, "max_abs", None)]
+            if hasattr(o, "reason"):
+                notes.setdefault(f"{CV_LABELS[k]}: {o.reason}", None)
+            elif k != "in_sample" and o.folds < o.of_folds:
+                notes.setdefault(f"{CV_LABELS[k]}: {o.folds} of {o.of_folds} targets held out in turn (evenly "
+                                 "spread, both ends)", None)
+        rows.append(tuple(cells))
+    page.table(("model", f"in-sample RMS ({u})", f"in-sample max |r| ({u})", f"leave-one-run-out RMS ({u})",
+                f"leave-one-run-out max |r| ({u})", f"leave-one-target-out RMS ({u})",
+                f"leave-one-target-out max |r| ({u})"), rows, digits=3)
+    page.paragraph("In-sample: the table scored on the data it was fitted to (a table through the means leaves "
+                   "only the run-to-run scatter). Leave-one-run-out: each model refitted without one run and scored "
+                   "on that run (a repeat of the measurement). Leave-one-target-out: refitted without one target and "
+                   "scored there (positions between the targets; an end target is held at its neighbour's value). "
+                   + " ".join(f"{n}." for n in notes), "note")
 
 
 def _sentence(text: str) -> str:

@@ -10,6 +10,7 @@ from processing.uncertainty import K
 
 from ..evaluate_straightness import StraightnessEvaluation
 from ..results import LINE_LABELS, profile_figure
+from .common import verdict_section
 from .html import HtmlPage, figure_png
 
 METHOD_LABELS = {
@@ -38,6 +39,24 @@ def straightness_sections(page: HtmlPage, evaluation: StraightnessEvaluation) ->
     stations_section(page, r)
 
 
+def straightness_headline(page: HtmlPage, evaluation: StraightnessEvaluation) -> None:
+    """The result in one line (the tolerance's reference line, else minimum zone) and the verdict."""
+    r = evaluation.result
+    tol = ((evaluation.run.meta.get("setup") or {}).get("tolerance") or {})
+    line = tol.get("reference_line", "minimum_zone") if isinstance(tol, dict) else "minimum_zone"
+    fit = r.lines.get(line)
+    page.heading("Result")
+    if fit is None:
+        page.paragraph("No straightness evaluated.", "note")
+        return
+    mc = r.uncertainty.to_dict().get("straightness", {}) if r.uncertainty is not None else {}
+    unc = f" ± {mc[line]:.3f} µm (k = {K:g})" if line in mc else ""
+    travel = float(r.profile["x_mm"].iloc[-1] - r.profile["x_mm"].iloc[0]) if len(r.profile) else 0.0
+    page.paragraph(f"Straightness {fit.straightness_um:.3f} µm{unc} against the {line_label(line)}, "
+                   f"over {travel:g} mm", "headline")
+    verdict_section(page, evaluation.verdict, "straightness_um, reference_line")
+
+
 def summary_section(page: HtmlPage, evaluation: StraightnessEvaluation) -> None:
     r = evaluation.result
     prof = r.profile
@@ -58,9 +77,9 @@ def summary_section(page: HtmlPage, evaluation: StraightnessEvaluation) -> None:
         lo_hi = interval.get(name)
         rows.append((line_label(name), fit.straightness_um, mc.get(name),
                      f"{lo_hi[0]:.3f} … {lo_hi[1]:.3f}" if lo_hi else "—",
-                     fit.slope_um_per_mm, fit.intercept_um))
+                     fit.slope_um_per_mm * 1000.0, fit.intercept_um))
     page.table(("reference line", "straightness (µm)", f"U, k = {K:g} (µm)", "95 % interval (µm)",
-                "slope (µm/mm)", "intercept (µm)"), rows, text_columns=(0, 3))
+                "slope (µm/m)", "intercept (µm)"), rows, text_columns=(0, 3))
     page.paragraph("Straightness = max − min of the deviations from the named reference line "
                    "(ISO 230-1 straightness error); the minimum-zone value is the smallest of the three. "
                    + uncertainty_method_text(r), "note")
@@ -99,7 +118,8 @@ def wavelength_section(page: HtmlPage, r: StraightnessResult) -> None:
         return
     page.table(("rank", "wavelength (mm)", "amplitude (µm)"),
                [(i, p.wavelength_mm, p.amplitude_um) for i, p in enumerate(r.wavelengths, start=1)], digits=3)
-    page.paragraph("Spectrum of the least-squares-detrended profile.", "note")
+    page.paragraph("Spectrum of the least-squares-detrended profile; only wavelengths shorter than the measured "
+                   "length are reported (a longer one is not resolved by the measurement).", "note")
 
 
 def return_pass_section(page: HtmlPage, r: StraightnessResult) -> None:

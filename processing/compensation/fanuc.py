@@ -75,6 +75,17 @@ class FanucPitchTable:
         n = np.arange(self.negative_end - 1, self.positive_end + 1)
         return self.reference_position_mm + (n - self.reference_number) * self.interval_mm
 
+    def absolute_counts(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """Absolute correction (counts) at :meth:`positions_mm`: the + travel table (0 at the
+        reference) and, bidirectional, the − travel table (3627 at the reference); the sums of
+        the incremental values as the control adds them up."""
+        up = absolute_from_incremental(self.values, self.negative_end, self.reference_number)
+        if self.values_negative is None:
+            return up, None
+        down = absolute_from_incremental(self.values_negative, self.negative_end, self.reference_number,
+                                         int(self.reference_offset or 0))
+        return up, down
+
 
 def fanuc_pitch_table(
     error_up_um: np.ndarray,

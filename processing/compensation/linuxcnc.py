@@ -22,13 +22,9 @@ MAX_ENTRIES = 256  # EMCMOT_COMP_SIZE
 FILE_TYPES = (0, 1)
 
 
-def linuxcnc_comp_text(table: ErrorTable, *, file_type: int = 1, unit_scale: float = 1e-3, decimals: int = 6) -> str:
-    """The COMP_FILE text for ``table``.
-
-    ``unit_scale`` converts the table's error unit to machine units (um → mm: 1e-3;
-    arcsec → deg: 1/3600).  The backlash of a ``backlash``-mode table is folded into the
-    directional values, because LinuxCNC ignores BACKLASH when COMP_FILE is set.
-    """
+def linuxcnc_columns(table: ErrorTable, *, file_type: int = 1, unit_scale: float = 1e-3,
+                     decimals: int = 6) -> list[tuple[str, str, str]]:
+    """The three numbers of every line of the COMP_FILE, as written (see :func:`linuxcnc_comp_text`)."""
     if file_type not in FILE_TYPES:
         raise ValueError(f"LinuxCNC COMP_FILE_TYPE must be 0 or 1, not {file_type!r}")
     p = np.asarray(table.position, dtype=float)
@@ -45,5 +41,28 @@ def linuxcnc_comp_text(table: ErrorTable, *, file_type: int = 1, unit_scale: flo
         cols = (rounded, rounded + up, rounded + dn)
     else:
         cols = (rounded, -up, -dn)
-    return "".join(f"{fixed(a, decimals)} {fixed(b, decimals)} {fixed(c, decimals)}\n"
-                   for a, b, c in zip(*cols, strict=True))
+    return [(fixed(a, decimals), fixed(b, decimals), fixed(c, decimals)) for a, b, c in zip(*cols, strict=True)]
+
+
+def linuxcnc_comp_text(table: ErrorTable, *, file_type: int = 1, unit_scale: float = 1e-3, decimals: int = 6) -> str:
+    """The COMP_FILE text for ``table``.
+
+    ``unit_scale`` converts the table's error unit to machine units (um → mm: 1e-3;
+    arcsec → deg: 1/3600).  The backlash of a ``backlash``-mode table is folded into the
+    directional values, because LinuxCNC ignores BACKLASH when COMP_FILE is set.
+    """
+    rows = linuxcnc_columns(table, file_type=file_type, unit_scale=unit_scale, decimals=decimals)
+    return "".join(f"{a} {b} {c}\n" for a, b, c in rows)
+
+
+def linuxcnc_applied(table: ErrorTable, *, file_type: int = 1, unit_scale: float = 1e-3,
+                     decimals: int = 6) -> ErrorTable:
+    """The error the controller removes with the file as written (its rounded numbers; the
+    loader's trim is nominal − actual for type 0, the number itself for type 1; the trim is
+    added to the command, so the error removed is −trim), per direction, in the error unit."""
+    rows = np.array(linuxcnc_columns(table, file_type=file_type, unit_scale=unit_scale, decimals=decimals),
+                    dtype=float).reshape(-1, 3)
+    nominal, fwd, rev = rows.T
+    if file_type == 0:
+        fwd, rev = nominal - fwd, nominal - rev
+    return ErrorTable(nominal, -fwd / unit_scale, -rev / unit_scale, "bidirectional", table.model)

@@ -207,27 +207,85 @@ def segment_breakpoints(x: np.ndarray, e: np.ndarray, threshold: float) -> np.nd
     bps = [0]
     start = 0
     while start < n - 1:
-        end = start + 1  # two points always lie on their LS line
-        while end + 1 < n and _ls_line_max_residual(x[start : end + 2], e[start : end + 2]) <= threshold:
-            end += 1
+        end = _segment_end(x, e, start, threshold)
         bps.append(end)
         start = end
     return np.asarray(bps, dtype=int)
 
 
-def fit_segments(x: np.ndarray, e: np.ndarray, *, threshold: float | None = None) -> SegmentModel:
+def _segment_end(x: np.ndarray, e: np.ndarray, start: int, threshold: float) -> int:
+    """The last point of the segment that starts at ``start``: the windows start … t are tested
+    for t = start + 2, start + 3, … (two points always lie on their line); the segment ends
+    before the first window whose least-squares line misses a point by more than
+    ``threshold``.  The windows are tested a chunk at a time (one row per window, the same
+    centred formulas as :func:`_ls_line_max_residual`), which keeps long axes fast."""
+    n = len(x)
+    lo, chunk = start + 2, 16
+    while lo < n:
+        hi = min(n, lo + chunk)
+        xs, es = x[start:hi], e[start:hi]
+        last = np.arange(lo, hi) - start  # last index of each window, local
+        mask = np.arange(hi - start)[None, :] <= last[:, None]
+        count = last + 1.0
+        dx = np.where(mask, xs[None, :] - (np.where(mask, xs, 0.0).sum(axis=1) / count)[:, None], 0.0)
+        de = np.where(mask, es[None, :] - (np.where(mask, es, 0.0).sum(axis=1) / count)[:, None], 0.0)
+        slope = (dx * de).sum(axis=1) / (dx * dx).sum(axis=1)
+        worst = np.max(np.abs(de - slope[:, None] * dx), axis=1)
+        fail = np.flatnonzero(worst > threshold)
+        if fail.size:
+            return int(lo + fail[0] - 1)
+        lo, chunk = hi, chunk * 2
+    return n - 1
+
+
+def _one_point_less(hint: SegmentModel, x: np.ndarray, e: np.ndarray) -> int | None:
+    """The index i such that (x, e) is ``hint``'s data without point i, or None."""
+    if len(x) != len(hint.x) - 1:
+        return None
+    differ = np.flatnonzero(x != hint.x[:-1])
+    i = int(differ[0]) if differ.size else len(x)
+    same = np.array_equal(x, np.delete(hint.x, i)) and np.array_equal(e, np.delete(hint.e, i))
+    return i if same else None
+
+
+def _breakpoints_without(hint: SegmentModel, x: np.ndarray, e: np.ndarray, i: int, tau: float) -> np.ndarray:
+    """:func:`segment_breakpoints` of ``hint``'s data without point i, computed again only where
+    it can differ.  A segment of the full data that ends at b ≤ i − 2 was closed by a window
+    (its start … b + 1) that does not contain point i, so every breakpoint up to the last such b
+    stays; the greedy search restarts there and stops as soon as it closes a segment at a
+    breakpoint the full data has after point i (from there on both see the same points)."""
+    full = [int(b) for b in hint.breakpoints]
+    kept = [b for b in full if b <= i - 2] or [0]
+    later = {b - 1 for b in full if b > i}  # full-data breakpoints after i, in the shorter data's indices
+    bps, start, n = list(kept), kept[-1], len(x)
+    while start < n - 1:
+        start = _segment_end(x, e, start, tau)
+        bps.append(start)
+        if start >= i and start in later:
+            bps += [b - 1 for b in full if b - 1 > start]
+            break
+    return np.asarray(bps, dtype=int)
+
+
+def fit_segments(x: np.ndarray, e: np.ndarray, *, threshold: float | None = None,
+                 hint: SegmentModel | None = None) -> SegmentModel:
     """Piecewise least-squares line segments (seed 004), ``threshold`` in the unit of ``e``
     (default max|e|/20).
 
     The table stores one value per breakpoint.  The values are those of the continuous
     least-squares polyline with these breakpoints (a linear LSQ spline), so the modelled curve
     is continuous and as close as a polyline on these nodes can be in the least-squares sense.
+
+    ``hint``: a model fitted to these data plus one more point (leave-one-out refits); the
+    breakpoints far from the missing point are taken from it (the result is the same as
+    without the hint, only faster).
     """
     x, e = _check_xy(x, e)
     tau = default_threshold(e) if threshold is None else float(threshold)
     if tau < 0:
         raise ValueError("segment threshold must be >= 0")
-    bps = segment_breakpoints(x, e, tau)
+    i = _one_point_less(hint, x, e) if hint is not None and hint.threshold == tau else None
+    bps = segment_breakpoints(x, e, tau) if i is None else _breakpoints_without(hint, x, e, i, tau)  # type: ignore[arg-type]
     nodes = x[bps]
     t = np.concatenate(([nodes[0]], nodes, [nodes[-1]]))
     values = make_lsq_spline(x, e, t, k=1)(nodes)
@@ -269,16 +327,19 @@ def fit_model(
     tolerance: float | None = None,
     initial_maxima: int | None = None,
     degree: int = DEFAULT_POLYNOMIAL_DEGREE,
+    hint: ErrorModel | None = None,
 ) -> ErrorModel:
     """Fit the model called ``name`` (one of :data:`MODEL_NAMES`).  ``tolerance`` is the spline
     tolerance or the segment threshold (unit of ``e``, default max|e|/20).  The polynomial's
-    degree is reduced to :func:`polynomial_degree` when there are too few points for it."""
+    degree is reduced to :func:`polynomial_degree` when there are too few points for it.
+    ``hint``: the same model fitted to these data plus one point (speeds up leave-one-out
+    refits of the segment model; the result does not depend on it)."""
     if name == "linear":
         return fit_linear(x, e)
     if name == "spline":
         return fit_adaptive_spline(x, e, tolerance=tolerance, initial_maxima=initial_maxima)
     if name == "segments":
-        return fit_segments(x, e, threshold=tolerance)
+        return fit_segments(x, e, threshold=tolerance, hint=hint if isinstance(hint, SegmentModel) else None)
     if name == "polynomial":
         return fit_polynomial(x, e, degree=polynomial_degree(degree, len(np.atleast_1d(x))))
     raise ValueError(f"unknown model {name!r}; choose one of {', '.join(MODEL_NAMES)}")

@@ -56,11 +56,17 @@ class MeasuredPoints:
     x: np.ndarray
     direction: np.ndarray
     e: np.ndarray
+    run: np.ndarray | None = None  # run number j of each point (None: not known, e.g. the means)
+
+    def subset(self, keep: np.ndarray) -> MeasuredPoints:
+        """The points where the boolean mask ``keep`` is true."""
+        return MeasuredPoints(self.x[keep], self.direction[keep], self.e[keep],
+                              None if self.run is None else self.run[keep])
 
     @classmethod
     def from_deviations(cls, deviations: pd.DataFrame) -> MeasuredPoints:
-        """From the evaluation's ``deviations`` (columns ``target``, ``direction``, ``deviation``);
-        non-finite deviations are dropped."""
+        """From the evaluation's ``deviations`` (columns ``target``, ``direction``, ``deviation``,
+        optionally ``run``); non-finite deviations are dropped."""
         missing = [c for c in ("target", "direction", "deviation") if c not in deviations.columns]
         if missing:
             raise ValueError(f"deviations lack column(s) {', '.join(missing)}")
@@ -72,7 +78,9 @@ class MeasuredPoints:
         keep = np.isfinite(x) & np.isfinite(e)
         if not keep.any():
             raise ValueError("no finite measured deviation")
-        return cls(x[keep], sign[keep].astype(np.int64), e[keep])
+        run = deviations["run"].to_numpy(dtype=float)[keep] if "run" in deviations.columns else None
+        run = run.astype(np.int64) if run is not None and np.all(np.isfinite(run)) else None
+        return cls(x[keep], sign[keep].astype(np.int64), e[keep], run)
 
     @classmethod
     def from_means(cls, d: DirectionalData) -> MeasuredPoints:
@@ -103,6 +111,21 @@ def iso_figures(points: MeasuredPoints, r: np.ndarray) -> tuple[float, float]:
     e_fig = float(np.nanmax(means.to_numpy()) - np.nanmin(means.to_numpy()))
     bi = means.mean(axis=1, skipna=True).to_numpy()
     return e_fig, float(np.max(bi) - np.min(bi))
+
+
+def residual_figures(points: MeasuredPoints, r: np.ndarray) -> dict[str, float]:
+    """``max_abs``, ``range``, ``rms`` (:class:`ResidualStats`) and ISO 230-2 ``E``, ``M``
+    (:func:`iso_figures`) of the residuals ``r`` at ``points``."""
+    e_fig, m_fig = iso_figures(points, r)
+    return {**ResidualStats.of(r).__dict__, "E": e_fig, "M": m_fig}
+
+
+def measured_points(target: np.ndarray, mean_up: np.ndarray, mean_down: np.ndarray,
+                    deviations: pd.DataFrame | None) -> MeasuredPoints:
+    """The points a residual is evaluated at: every measured deviation, or (``deviations``
+    None) the per-target means."""
+    d = split_directions(target, mean_up, mean_down)  # validates the means in both cases
+    return MeasuredPoints.from_means(d) if deviations is None else MeasuredPoints.from_deviations(deviations)
 
 
 def _polynomial_detail(curves: FittedCurves, requested: object) -> str:
@@ -142,16 +165,13 @@ def compare_models(
     ``df.attrs["n_points"]`` the number of residuals per model.
 
     ``positions`` is the controller's table grid (None: each model's own nodes)."""
-    d = split_directions(target, mean_up, mean_down)
-    points = MeasuredPoints.from_means(d) if deviations is None else MeasuredPoints.from_deviations(deviations)
+    points = measured_points(target, mean_up, mean_down, deviations)
     nan = float("nan")
 
     def row(model: str, n: int, r: np.ndarray, before_range: float, detail: str = "") -> dict[str, object]:
-        st = ResidualStats.of(r)
-        red = 100.0 * (1.0 - st.range / before_range) if before_range > 0 else 0.0
-        e_fig, m_fig = iso_figures(points, r)
-        return {"model": model, "table_points": n, **st.__dict__, "reduction_pct": red, "E": e_fig, "M": m_fig,
-                "detail": detail, "note": ""}
+        fig = residual_figures(points, r)
+        red = 100.0 * (1.0 - fig["range"] / before_range) if before_range > 0 else 0.0
+        return {"model": model, "table_points": n, **fig, "reduction_pct": red, "detail": detail, "note": ""}
 
     before = ResidualStats.of(points.e).range
     rows = [row("none", 0, points.e, before)]

@@ -48,7 +48,7 @@ def siemens_lec_text(
         raise ValueError(f"{len(p)} interpolation points; MD38000 MM_ENC_COMP_MAX_POINTS allows {max_points}")
     if not axis or any(c in axis for c in " ,[]=;"):
         raise ValueError(f"invalid axis name {axis!r}")
-    vs = [fixed(x, decimals) for x in v]
+    vs = siemens_values(error, unit_scale=unit_scale, decimals=decimals)
     if modulo and float(vs[0]) != float(vs[-1]):
         raise ValueError("a modulo LEC table needs equal values at MIN and MAX")
     lines = ["%_N_AX_EEC_INI", "CHANDATA(1)"]
@@ -64,3 +64,14 @@ def siemens_lec_text(
         "M17",
     ]
     return "\n".join(lines) + "\n"
+
+
+def siemens_values(error: np.ndarray, *, unit_scale: float = 1e-3, decimals: int = 6) -> list[str]:
+    """The compensation values as written: +e in the position unit, ``decimals`` decimals."""
+    return [fixed(x, decimals) for x in np.asarray(error, dtype=float) * unit_scale]
+
+
+def siemens_applied_error(error: np.ndarray, *, unit_scale: float = 1e-3, decimals: int = 6) -> np.ndarray:
+    """The error the controller removes at each interpolation point with the values as
+    written (rounded to ``decimals``), back in the error unit (um or arcsec)."""
+    return np.array([float(s) for s in siemens_values(error, unit_scale=unit_scale, decimals=decimals)]) / unit_scale

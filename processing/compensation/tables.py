@@ -112,37 +112,55 @@ def fit_curves(
     *,
     model: str = "linear",
     mode: str = "bidirectional",
+    hint: FittedCurves | None = None,
     **model_options: object,
 ) -> FittedCurves:
-    """Fit ``model`` to the measured means (target in mm/deg, means in um/arcsec)."""
+    """Fit ``model`` to the measured means (target in mm/deg, means in um/arcsec).  ``hint``:
+    the same fit with one target more (leave-one-out; see :func:`~.models.fit_model`)."""
     if mode not in MODES:
         raise ValueError(f"unknown table mode {mode!r}; choose one of {', '.join(MODES)}")
     d = split_directions(target, mean_up, mean_down)
+    hint_up, hint_down = (hint.up, hint.down) if hint is not None else (None, None)
     if mode == "bidirectional":
-        up = fit_model(model, d.x_up, d.e_up, **model_options)
-        down = fit_model(model, d.x_down, d.e_down, **model_options)
+        up = fit_model(model, d.x_up, d.e_up, hint=hint_up, **model_options)  # type: ignore[arg-type]
+        down = fit_model(model, d.x_down, d.e_down, hint=hint_down, **model_options)  # type: ignore[arg-type]
         return FittedCurves(up, down, mode, 0.0)
     both = np.intersect1d(d.x_up, d.x_down)
     if len(both) < 2:
         raise ValueError("backlash mode needs at least 2 targets measured in both directions")
     e_up = d.e_up[np.isin(d.x_up, both)]
     e_dn = d.e_down[np.isin(d.x_down, both)]
-    mean = fit_model(model, both, (e_up + e_dn) / 2.0, **model_options)
+    mean = fit_model(model, both, (e_up + e_dn) / 2.0, hint=hint_up, **model_options)  # type: ignore[arg-type]
     return FittedCurves(mean, mean, mode, float(np.mean(e_up - e_dn)))
 
 
-def equidistant_grid(start: float, stop: float, step: float, *, anchor: float | None = None) -> np.ndarray:
-    """Equidistant positions ``anchor + k·step`` covering [start, stop] (the first point at or
-    below ``start``, the last at or above ``stop``).  ``anchor`` defaults to ``start``."""
+def equidistant_grid(start: float, stop: float, step: float, *, anchor: float | None = None,
+                     inside: bool = False) -> np.ndarray:
+    """Equidistant positions ``anchor + k·step`` (``anchor`` defaults to ``start``):
+
+    * covering [start, stop]: the first point at or below ``start``, the last at or above ``stop``;
+    * ``inside``: only the points within [start, stop] (to 1e-9 of the range), so a table on the
+      grid never reaches outside the measured range (``anchor`` need not lie inside)."""
     if not (step > 0 and np.isfinite(step)):
         raise ValueError("grid step must be a positive number")
     if stop < start:
         raise ValueError("grid stop must not be below its start")
     a = start if anchor is None else anchor
     eps = 1e-9 * max(1.0, abs(start), abs(stop), abs(a)) / step
-    k0 = int(np.floor((start - a) / step + eps))
-    k1 = int(np.ceil((stop - a) / step - eps))
+    lo, hi = (start - a) / step, (stop - a) / step
+    if inside:
+        k0, k1 = int(np.ceil(lo - eps)), int(np.floor(hi + eps))
+    else:
+        k0, k1 = int(np.floor(lo + eps)), int(np.ceil(hi - eps))
     return a + step * np.arange(k0, k1 + 1, dtype=float)
+
+
+def floor_to(value: float, resolution: float) -> float:
+    """The largest whole multiple of ``resolution`` not above ``value`` (to 1e-9 of a
+    resolution step, so 0.3 / 0.001 is 300 steps, not 299)."""
+    if not resolution > 0:
+        raise ValueError("resolution must be positive")
+    return round(float(np.floor(value / resolution + 1e-9)) * resolution, 12)
 
 
 def is_equidistant(x: np.ndarray, rel_tol: float = 1e-6) -> bool:

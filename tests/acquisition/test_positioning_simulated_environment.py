@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from acquisition.acquire import SimOptions, run_positioning
+from acquisition.evaluate import process_run_dir
 from acquisition.positioning_setup import positioning_setup_from_dict
 from mocks.machine_axis import AxisErrors
 from tui.cli import main
@@ -70,13 +71,24 @@ def test_processing_recovers_the_simulated_axis_errors(tmp_path: Path, capsys: p
     assert out["iso230_2"]["E"] == pytest.approx(both.max() - both.min(), abs=2e-3)
     assert out["environment"]["applied"] == (not environment.get("readings_compensated", False))
 
+    # the live display showed each point as process evaluates it: the compensated deviation, labelled
+    _, ev = process_run_dir(tmp_path / "run")
+    offline = {(int(r.run), int(r.direction), int(r.target_index)): r.deviation for r in ev.deviations.itertuples()}
+    assert res.live is not None and set(res.live.deviations) == set(offline)
+    for key, value in offline.items():
+        assert res.live.deviations[key] == pytest.approx(value, abs=1e-9)
+        assert res.live.deviations[key] == pytest.approx(truth.deviation(s.targets[key[2] - 1], key[1], 0.0),
+                                                         abs=1e-3)
+    assert res.live.label == ("readings compensated by the controller" if environment.get("readings_compensated")
+                              else "environment-compensated")
+
 
 def test_raw_readings_carry_the_air_index_and_the_expansion(tmp_path: Path) -> None:
     # the uncompensated readings are far from the axis: the conditions really are in them
     src = setup_source({"refractive_index_assumed": 1.0})
     s = positioning_setup_from_dict(src)
-    run_positioning(s, tmp_path / "run", simulate=SimOptions(seed=5, noise=False), auto=True,
-                    stream=io.StringIO())
+    shown = io.StringIO()
+    run_positioning(s, tmp_path / "run", simulate=SimOptions(seed=5, noise=False), auto=True, stream=shown)
     from acquisition.runstore import load_run
 
     pts = load_run(tmp_path / "run").points
@@ -84,3 +96,8 @@ def test_raw_readings_carry_the_air_index_and_the_expansion(tmp_path: Path) -> N
     raw_dev_um = (far["reading_mm"] - far["target_mm"]) * 1000
     # n_air - 1 is about 2.6e-4 at these conditions, expansion 11.5e-6 * 3 K: > 150 um at 600 mm
     assert (raw_dev_um > 150).all()
+    # ... and the live display does not show them as deviations: the axis errors are within 13 um
+    live = [line for line in shown.getvalue().splitlines() if line.startswith("  live: ")]
+    assert len(live) == len(pts) and all(line.endswith("µm (environment-compensated)") for line in live)
+    values = [float(line.split("deviation ")[1].split()[0]) for line in live]
+    assert max(abs(v) for v in values) < 13.0

@@ -168,3 +168,19 @@ def test_a_complete_run_is_not_resumed(tmp_path: Path) -> None:
     run = make_run(tmp_path)
     with pytest.raises(RunFormatError, match="already complete"):
         RunStore.for_resume(run)
+
+
+def test_run_files_take_the_users_umask(tmp_path: Path) -> None:
+    import os
+
+    old = os.umask(0o002)
+    try:
+        store = RunStore(tmp_path / "run", {"machine": "M"})
+        start(store)
+        store("event", {"data": point(0)})
+        store("retract", {"match": {"station": 0}})  # points.csv rewritten atomically
+        store("stop", {"exit_status": "success", "reason": "done"})
+    finally:
+        os.umask(old)
+    for name in ("run.json", "points.csv"):
+        assert (tmp_path / "run" / name).stat().st_mode & 0o777 == 0o664, name

@@ -104,3 +104,12 @@ def test_residual_on_a_coarser_controller_grid() -> None:
 def test_a_nan_target_is_refused() -> None:
     with pytest.raises(ValueError, match="finite"):
         split_directions(np.array([0.0, np.nan, 2.0]), np.zeros(3), np.zeros(3))
+
+
+def test_equidistant_grid_inside_the_range_never_reaches_outside() -> None:
+    # 4.404 … 995.31 mm with a 247.726 mm step: 4 steps end at 995.308, a fifth would be 1243.034
+    np.testing.assert_allclose(equidistant_grid(4.404, 995.31, 247.726, inside=True),
+                               [4.404, 252.13, 499.856, 747.582, 995.308])
+    np.testing.assert_allclose(equidistant_grid(0.0, 300.0, 100.0, inside=True), [0, 100, 200, 300])
+    np.testing.assert_allclose(equidistant_grid(-30.0, 120.0, 50.0, anchor=0.0, inside=True), [0, 50, 100])
+    np.testing.assert_allclose(equidistant_grid(12.0, 95.0, 20.0, anchor=500.0, inside=True), [20, 40, 60, 80])

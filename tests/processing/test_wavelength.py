@@ -52,3 +52,25 @@ def test_spectrum_is_scipys_periodogram(n: int) -> None:
                                nfft=nfft, detrend=False, scaling="spectrum")
     np.testing.assert_allclose(f, f_ref)
     np.testing.assert_allclose(amp, np.sqrt(2 * p_ref), atol=1e-12)
+
+
+@pytest.mark.parametrize("h", [
+    [0.359, 1.322, -0.014, 1.042, 1.402, 1.15, -2.365],
+    [-1.902, -0.109, -0.804, 1.08, -0.289, 0.083, -0.85, -0.511, -0.012, -1.485],
+])
+def test_only_wavelengths_below_the_measured_length_are_reported(h: list[float]) -> None:
+    from scipy.signal import periodogram
+
+    from processing.reference_lines import least_squares_line
+
+    x = np.arange(len(h)) * 100.0
+    length = x[-1] - x[0]
+    # scipy's periodogram of the detrended profile has a peak at a wavelength of at least the
+    # measured length (between one record, n spacings, and n - 1 spacings) ...
+    f, p = periodogram(least_squares_line(x, np.array(h)).deviations_um, fs=0.01, window="boxcar",
+                       nfft=64 * len(h), detrend=False, scaling="spectrum")
+    peak = np.flatnonzero((p[1:-1] >= p[:-2]) & (p[1:-1] > p[2:])) + 1
+    assert any(1.0 / f[k] >= length for k in peak)
+    # ... which is not reported; the shorter peaks are
+    got = [q.wavelength_mm for q in dominant_wavelengths(x, np.array(h))]
+    assert got and all(w < length for w in got)

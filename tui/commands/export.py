@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.export import ExportOptions, export_run, format_comparison
+    from acquisition.errors import UserError
+    from acquisition.export import ExportOptions, export_run
     from acquisition.runstore import write_text_atomic
 
     options = ExportOptions(
@@ -21,22 +23,32 @@ def run(args: argparse.Namespace) -> int:
         siemens_axis=args.siemens_axis, siemens_encoder=args.siemens_encoder, siemens_modulo=args.siemens_modulo,
         siemens_max_points=args.siemens_max_points,
     )
-    run_, export = export_run(args.run_dir, options)
+    to_stdout = args.out is not None and str(args.out) == "-"
+    if to_stdout and args.json:
+        raise UserError("--json prints the residuals on stdout; write the table to a file (--out FILE) "
+                        "or use the default")
+    run_, export = export_run(args.run_dir, options, accept_out_of_range=args.accept_out_of_range)
     for w in run_.warnings:
         print(f"guideway: warning: {w}", file=sys.stderr)
-    to_stdout = args.out is not None and str(args.out) == "-"
-    info = sys.stderr if to_stdout else sys.stdout
+    info = sys.stderr if to_stdout or args.json else sys.stdout
+    out = None
     if to_stdout:
         sys.stdout.write(export.text)
     else:
         out = args.out or (run_.path / "results" / f"compensation-{args.format}{export.suffix}")
         out.parent.mkdir(parents=True, exist_ok=True)
         write_text_atomic(out, export.text)
-        print(f"{args.format} table ({len(export.table)} points, model {args.model}) written to {out}", file=info)
+        first, last = export.table.position[0], export.table.position[-1]
+        step = "" if export.grid_step is None else f", step {round(export.grid_step, 9):.12g} {export.position_unit}"
+        print(f"{args.format} table ({len(export.table)} points, {first:g} … {last:g} {export.position_unit}{step}, "
+              f"model {args.model}) written to {out}", file=info)
+    if args.json:
+        json.dump({**export.to_dict(), "out": None if out is None else str(out)}, sys.stdout, allow_nan=False)
+        sys.stdout.write("\n")
+        return 0
     for note in export.notes:
         print(note, file=info)
-    print(f"residual after compensation ({export.error_unit}):", file=info)
-    print(format_comparison(export.comparison, export.error_unit), file=info)
+    print(export.residual_text(), file=info)
     return 0
 
 
@@ -52,6 +64,11 @@ def register(sub) -> None:  # noqa: ANN001
     ex.add_argument("--mode", choices=MODES, default=None,
                     help="separate +/- tables, or one mean table + backlash (default: bidirectional; "
                          "siemens: backlash)")
+    ex.add_argument("--json", action="store_true",
+                    help="print the residuals (comparison, table as written, cross-validation) as one JSON "
+                         "object on stdout (the table is written to its file)")
+    ex.add_argument("--accept-out-of-range", action="store_true",
+                    help="use readings further from their target than the set-up allows instead of refusing")
     ex.add_argument("--out", type=Path, default=None,
                     help="output file ('-' = stdout; default RUN_DIR/results/compensation-FORMAT.*)")
     ex.add_argument("--step", type=float, default=None,

@@ -49,6 +49,8 @@ def evaluator_options(args: argparse.Namespace) -> dict[str, object]:
         opts["k"] = args.k
     if getattr(args, "edition", None) is not None:
         opts["edition"] = args.edition
+    if getattr(args, "accept_out_of_range", False):
+        opts["accept_out_of_range"] = True
     if args.mc_trials is not None:
         if args.mc_trials < 0 or args.mc_trials == 1:
             from acquisition.errors import UserError
@@ -70,6 +72,9 @@ def add_evaluator_options(parser: argparse.ArgumentParser) -> None:
                         help="ISO 230-2 coverage factor for a positioning run (default 2)")
     parser.add_argument("--edition", choices=EDITION_CHOICES, default=None,
                         help="ISO 230-2 edition recorded for a positioning run (default ISO 230-2:2014)")
+    parser.add_argument("--accept-out-of-range", action="store_true",
+                        help="evaluate values outside the set-up's validation limits instead of refusing the "
+                             "run (they are listed in the results and marked in the report)")
 
 
 def register(sub) -> None:  # noqa: ANN001
