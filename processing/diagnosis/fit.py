@@ -21,7 +21,7 @@ from ..effects import Effect
 from . import basis
 from .observations import Observations
 
-RANK_RTOL = 1e-9
+RANK_RTOL = 1e-6  # columns (unit norm) closer to collinear than this count as dependent
 OVERSAMPLE = 5
 
 
@@ -57,20 +57,33 @@ class Fit:
 
 
 def _scaled(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    norms = np.linalg.norm(x, axis=0)
+    norms = np.sqrt(np.einsum("ij,ij->j", x, x))
     norms[norms == 0] = 1.0
     return x / norms, norms
 
 
+def _eig(gram: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenpairs of a scaled Gram matrix above the rank threshold (RANK_RTOL² of the largest)."""
+    w, v = np.linalg.eigh(gram)
+    keep = w > max(w[-1], 0.0) * RANK_RTOL**2 if w.size else np.zeros(0, dtype=bool)
+    return w[keep], v[:, keep]
+
+
 def solve(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, float, int]:
-    """Least squares on scaled columns: (coefficients, RSS, rank)."""
+    """Least squares on scaled columns by the normal equations (pseudo-inverse: minimum-norm where
+    columns are collinear): (coefficients, RSS, rank)."""
     xs, norms = _scaled(x)
-    sol, _, rank, s = np.linalg.lstsq(xs, y, rcond=None)
-    tol = s[0] * RANK_RTOL if s.size else 0.0
-    rank = int(np.sum(s > tol)) if s.size else 0
-    coef = sol / norms
+    w, v = _eig(xs.T @ xs)
+    coef = (v @ ((v.T @ (xs.T @ y)) / w)) / norms
     r = y - x @ coef
-    return coef, float(r @ r), rank
+    return coef, float(r @ r), int(w.size)
+
+
+def orthonormal_basis(x: np.ndarray) -> np.ndarray:
+    """An orthonormal basis (n × rank) of the column space of ``x``."""
+    xs, _ = _scaled(x)
+    w, v = _eig(xs.T @ xs)
+    return (xs @ v) / np.sqrt(w)
 
 
 def fixed_part(effects: tuple[Effect, ...], obs: Observations) -> np.ndarray:
@@ -115,15 +128,14 @@ class _Scan:
     column space is projected out once, and the sums run over distinct positions."""
 
     def __init__(self, base: np.ndarray, y: np.ndarray, positions: np.ndarray) -> None:
-        u, s, _ = np.linalg.svd(_scaled(base)[0], full_matrices=False)
-        u = u[:, s > (s[0] * RANK_RTOL if s.size else 0)]
+        u = orthonormal_basis(base)
         self.r0 = y - u @ (u.T @ y)
         self.rss0 = float(self.r0 @ self.r0)
         self.pos, inv = np.unique(positions, return_inverse=True)
         self.count = np.bincount(inv, minlength=len(self.pos)).astype(float)
         self.r_agg = np.bincount(inv, weights=self.r0, minlength=len(self.pos))
-        self.u_agg = np.zeros((len(self.pos), u.shape[1]))
-        np.add.at(self.u_agg, inv, u)
+        self.u_agg = np.column_stack([np.bincount(inv, weights=col, minlength=len(self.pos)) for col in u.T]) \
+            if u.shape[1] else np.zeros((len(self.pos), 0))
 
     def rss(self, wavelengths: np.ndarray) -> np.ndarray:
         th = 2 * np.pi * self.pos[:, None] / np.asarray(wavelengths, dtype=float)[None, :]
@@ -159,25 +171,27 @@ def free_wavelength(e: Effect) -> bool:
 
 
 # -- the fit ---------------------------------------------------------------------------------------------
-def fit_model(obs: Observations, effects: tuple[Effect, ...] | list[Effect],
-              wavelength_hint: dict[int, float] | None = None) -> Fit:
+def fit_model(obs: Observations, effects: tuple[Effect, ...] | list[Effect], *,
+              refine: set[int] | None = None, standard_errors: bool = True) -> Fit:
     """Fit the free parameters of ``effects`` (and the nuisance) to ``obs``.
 
-    ``wavelength_hint``: start wavelengths of free-wavelength periodic effects (refined
-    locally); one without a hint or a value is searched over :func:`wavelength_grid`.
+    A free-wavelength periodic effect without a wavelength is searched over :func:`wavelength_grid`,
+    one with a wavelength (a start value, or the last fit's) is refined near it; ``refine``: only those
+    effects' wavelengths are searched or refined, the others are used as they are (a candidate tested
+    against a fitted model).  ``standard_errors=False`` skips them (candidate tests).
     """
     effects = tuple(effects)
     target = obs.y_um - fixed_part(effects, obs)
-    hints = dict(wavelength_hint or {})
     nonlinear = [i for i, e in enumerate(effects) if free_wavelength(e)]
     wl: dict[int, float] = {}
     for i in nonlinear:
-        start = hints.get(i, effects[i].params.get("wavelength_mm"))
+        start = effects[i].params.get("wavelength_mm")
         if start is not None:
             wl[i] = float(start)  # type: ignore[arg-type]
-    grid, _ = wavelength_grid(obs.values["position_mm"]) if nonlinear else (np.empty(0), 1.0)
-    for _sweep in range(2 if len(nonlinear) > 1 else 1):
-        for i in nonlinear:
+    searched = [i for i in nonlinear if refine is None or i in refine]
+    grid, _ = wavelength_grid(obs.values["position_mm"]) if searched else (np.empty(0), 1.0)
+    for _sweep in range(2 if len(searched) > 1 else 1):
+        for i in searched:
             if i not in wl and len(grid) == 0:
                 raise ValueError("a periodic wavelength cannot be searched with fewer than 4 distinct positions")
             unknown = {j for j in nonlinear if j not in wl}
@@ -190,12 +204,34 @@ def fit_model(obs: Observations, effects: tuple[Effect, ...] | list[Effect],
     pos = obs.nuisance.shape[1]
     for i, c in cols:
         k = c.matrix.shape[1]
-        fitted[i] = effects[i].with_params(c.to_params(coef[pos:pos + k]))
+        block = coef[pos:pos + k]
+        if effects[i].type in basis.TABLES:
+            block = table_gauge(c.matrix, obs.nuisance, block)
+        fitted[i] = effects[i].with_params(c.to_params(block))
         pos += k
     residual = target - x @ coef
     n_params = rank + len(nonlinear)
-    se = _standard_errors(obs, tuple(fitted), rss, n_params)
+    se = _standard_errors(obs, tuple(fitted), rss, n_params) if standard_errors else tuple({} for _ in fitted)
     return Fit(tuple(fitted), residual, rss, n_params, x, target, se)
+
+
+def without_nuisance(cols: np.ndarray, nuisance: np.ndarray) -> np.ndarray:
+    """``cols`` minus their least-squares projection on the nuisance columns."""
+    u = orthonormal_basis(nuisance)
+    return cols - u @ (u.T @ cols)
+
+
+def table_gauge(hats: np.ndarray, nuisance: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """The values of a free table in its reported gauge.
+
+    A table's level (and with a reference line its slope) is not separable from the nuisance: the
+    values are reported with the part the nuisance can absorb removed, i.e. orthogonal to the value
+    vectors w whose contribution lies in the nuisance's span (for an offset nuisance: zero sum).
+    """
+    h = without_nuisance(hats, nuisance)
+    w, v = np.linalg.eigh(h.T @ h)
+    null = v[:, w <= max(w[-1], 0.0) * RANK_RTOL**2] if w.size else np.zeros((len(values), 0))
+    return values - null @ (null.T @ values)
 
 
 def _standard_errors(obs: Observations, effects: tuple[Effect, ...], rss: float, n_params: int
@@ -206,7 +242,8 @@ def _standard_errors(obs: Observations, effects: tuple[Effect, ...], rss: float,
     for i, e in enumerate(effects):
         if e.free:
             names, jac = basis.jacobian(e, obs)
-            blocks.append(jac)
+            # a table in its gauge (table_gauge): the directions the nuisance absorbs are not its own
+            blocks.append(without_nuisance(jac, obs.nuisance) if e.type in basis.TABLES else jac)
             owners += [(i, n) for n in names]
     j = np.column_stack(blocks)
     dof = obs.n - n_params
@@ -232,47 +269,44 @@ def bic(rss: float, n: int, k: int) -> float:
     return n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
 
 
-def cv_rmse(designs: list[np.ndarray], y: list[np.ndarray], folds: np.ndarray) -> list[float | None]:
-    """Grouped cross-validation RMSE of each design (each fold held out, fitted on the rest).
+@dataclass(frozen=True)
+class FoldFits:
+    """A design fitted with each cross-validation fold held out: per fold the held-out sum of squared
+    prediction errors (None where holding the fold out loses rank) and the fold's size."""
 
-    Folds where a design loses rank when its fold is held out (an effect that only that fold can
-    estimate) are left out for all designs alike; None when no fold is left.
-    """
-    fold_list = np.unique(folds)
-    parts = []
-    for x, target in zip(designs, y, strict=True):
-        xs, _ = _scaled(x)
-        grams = np.stack([xs[folds == f].T @ xs[folds == f] for f in fold_list])
-        rhs = np.stack([xs[folds == f].T @ target[folds == f] for f in fold_list])
-        yy = np.array([target[folds == f] @ target[folds == f] for f in fold_list])
-        parts.append((grams, rhs, yy))
-    usable = np.ones(len(fold_list), dtype=bool)
-    solutions = []
-    for grams, rhs, _ in parts:
-        g_all, b_all = grams.sum(axis=0), rhs.sum(axis=0)
-        full_rank = _rank(g_all)
-        sols = []
-        for k in range(len(fold_list)):
-            g = g_all - grams[k]
-            if _rank(g) < full_rank:
-                usable[k] = False
-                sols.append(None)
-                continue
-            sols.append(np.linalg.lstsq(g, b_all - rhs[k], rcond=None)[0])
-        solutions.append(sols)
-    if not usable.any():
-        return [None for _ in designs]
-    out: list[float | None] = []
-    for (grams, rhs, yy), sols in zip(parts, solutions, strict=True):
-        sse, count = 0.0, 0
-        for k in np.flatnonzero(usable):
-            beta = sols[k]
-            sse += float(yy[k] - 2 * beta @ rhs[k] + beta @ grams[k] @ beta)
-            count += int(np.sum(folds == fold_list[k]))
-        out.append(math.sqrt(max(sse, 0.0) / count))
-    return out
+    sse: tuple[float | None, ...]
+    sizes: tuple[int, ...]
 
 
-def _rank(gram: np.ndarray) -> int:
-    ev = np.linalg.eigvalsh(gram)
-    return int(np.sum(ev > max(ev[-1], 0.0) * 1e-10)) if ev.size else 0
+def fold_fits(x: np.ndarray, y: np.ndarray, folds: np.ndarray) -> FoldFits:
+    """Fit ``x`` to ``y`` once per fold of ``folds`` held out (normal equations: the Gram matrix of
+    the rest is the total minus the fold's)."""
+    order = np.argsort(folds, kind="stable")
+    _, starts, sizes = np.unique(folds[order], return_index=True, return_counts=True)
+    xs, _ = _scaled(x[order])
+    ys = y[order]
+    cuts = [slice(a, a + m) for a, m in zip(starts, sizes, strict=True)]
+    grams = [xs[c].T @ xs[c] for c in cuts]
+    rhs = [xs[c].T @ ys[c] for c in cuts]
+    g_all, b_all = sum(grams), sum(rhs)
+    full_rank = len(_eig(g_all)[0])
+    sse: list[float | None] = []
+    for c, g, b in zip(cuts, grams, rhs, strict=True):
+        w, v = _eig(g_all - g)
+        if len(w) < full_rank:
+            sse.append(None)
+            continue
+        beta = v @ ((v.T @ (b_all - b)) / w)
+        sse.append(max(float(ys[c] @ ys[c] - 2 * beta @ b + beta @ g @ beta), 0.0))
+    return FoldFits(tuple(sse), tuple(int(m) for m in sizes))
+
+
+def cv_rmse(fits: list[FoldFits]) -> list[float | None]:
+    """Grouped cross-validation RMSE of each design, over the folds every design can hold out
+    (None when there is no such fold)."""
+    usable = [k for k in range(len(fits[0].sizes)) if all(f.sse[k] is not None for f in fits)]
+    if not usable:
+        return [None for _ in fits]
+    count = sum(fits[0].sizes[k] for k in usable)
+    return [math.sqrt(sum(f.sse[k] for k in usable) / count) for f in fits]  # type: ignore[misc]
+

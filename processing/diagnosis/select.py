@@ -32,7 +32,7 @@ from scipy import stats
 
 from ..effects import Effect
 from . import basis
-from .fit import Fit, bic, cv_rmse, fit_model, free_wavelength, wavelength_grid
+from .fit import Fit, FoldFits, bic, cv_rmse, fit_model, fold_fits, free_wavelength, wavelength_grid
 from .observations import Observations
 
 
@@ -106,7 +106,8 @@ def disagreement(obs: Observations, residual: np.ndarray, sigma: float, alpha: f
         bins = np.empty(obs.n, dtype=int)
         bins[order] = np.arange(obs.n) * 8 // max(obs.n, 1)
         t = v["time_min"]
-        groupings["time"] = (bins, [f"{t[bins == b].min():.1f}-{t[bins == b].max():.1f} min"
+        scale, unit = (1.0, "min") if t.max(initial=0) >= 2 else (60.0, "s")
+        groupings["time"] = (bins, [f"{t[bins == b].min() * scale:.1f}-{t[bins == b].max() * scale:.1f} {unit}"
                                     for b in range(int(bins.max(initial=-1)) + 1)])
     out: dict[str, Any] = {"noise_um": sigma, "channel": obs.channel}
     for name, (ids, labels) in groupings.items():
@@ -213,10 +214,12 @@ class CandidateTest:
                 "significant": self.significant}
 
 
-def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int, rule: Rule) -> CandidateTest | None:
-    """Fit ``current`` + ``cand``; None when the candidate adds no parameter (it lies in the model's span)."""
+def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int, rule: Rule,
+                   current_folds: FoldFits | None = None) -> CandidateTest | None:
+    """Fit ``current`` + ``cand`` (the model's wavelengths kept); None when the candidate adds no parameter
+    (it lies in the model's span).  ``current_folds``: the current model's cross-validation fits."""
     try:
-        fit = fit_model(obs, (*current.effects, cand))
+        fit = fit_model(obs, (*current.effects, cand), refine={len(current.effects)}, standard_errors=False)
     except (ValueError, np.linalg.LinAlgError):
         return None
     added = fit.n_params - current.n_params - (1 if free_wavelength(cand) else 0)
@@ -233,7 +236,8 @@ def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int,
         m_eff = wavelength_grid(obs.values["position_mm"])[1]
         p = float(-np.expm1(m_eff * np.log1p(-min(p, 1 - 1e-16))))
     threshold = rule.alpha / max(k_tested, 1)
-    cv_before, cv_after = cv_rmse([current.design, fit.design], [current.target, fit.target], obs.folds)
+    before = current_folds or fold_fits(current.design, current.target, obs.folds)
+    cv_before, cv_after = cv_rmse([before, fold_fits(fit.design, fit.target, obs.folds)])
     significant = (p < threshold and dbic <= -rule.bic_margin
                    and (cv_before is None or cv_after is None or cv_after < cv_before))
     return CandidateTest(fit.effects[-1], fit, added_total, dbic, f_stat, p, threshold, cv_before, cv_after,
@@ -316,33 +320,60 @@ def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect]
                             regions, tuple(ambiguous), not_testable, last, rule)
 
 
-def _round(obs: Observations, current: Fit, rule: Rule, not_testable: dict[str, str]) -> list[CandidateTest]:
-    """Every candidate tested against ``current``, best (lowest BIC) first."""
+CATCH_ALL = ("error_table", "profile_table")
+"""Free tables: they fit any position-dependent error, so they are tried only when no physical effect
+with few parameters is significant (and a candidate table around a named effect is not its rival)."""
+
+
+def _round(obs: Observations, current: Fit, rule: Rule, not_testable: dict[str, str],
+           catch_all: bool | str = "last") -> list[CandidateTest]:
+    """Every candidate tested against ``current``, best (lowest BIC) first; the free tables too when
+    ``catch_all`` is True, or with ``"last"`` when no other candidate is significant."""
     cands, skipped = candidate_effects(obs, current.effects)
     not_testable.update(skipped)
-    tests = [t for t in (test_candidate(obs, current, c, len(cands), rule) for c in cands) if t is not None]
-    for c in cands:
-        if not any(t.effect.label == c.label for t in tests):
-            not_testable.setdefault(c.label, "no variation beyond what the model already fits on this run")
+    k = len(cands)  # the Bonferroni family counts every candidate, tested or not
+    folds = fold_fits(current.design, current.target, obs.folds)
+
+    def run(group: list[Effect]) -> list[CandidateTest]:
+        out = [t for t in (test_candidate(obs, current, c, k, rule, folds) for c in group) if t is not None]
+        for c in group:
+            if not any(t.effect.label == c.label for t in out):
+                not_testable.setdefault(c.label, "no variation beyond what the model already fits on this run")
+        return out
+
+    tests = run([c for c in cands if c.type not in CATCH_ALL])
+    if catch_all is True or (catch_all == "last" and not any(t.significant for t in tests)):
+        tests += run([c for c in cands if c.type in CATCH_ALL])
     return sorted(tests, key=lambda t: t.delta_bic)
+
+
+def _pick(tests: list[CandidateTest]) -> CandidateTest | None:
+    """The best significant candidate, a physical effect before a free table."""
+    winners = [t for t in tests if t.significant]
+    return next((t for t in winners if t.effect.type not in CATCH_ALL), winners[0] if winners else None)
 
 
 def _forward(obs: Observations, start: Fit, rule: Rule, not_testable: dict[str, str],
              allowed: set[str] | None = None) -> tuple[list[Step], tuple[CandidateTest, ...]]:
-    """Add the best significant candidate (only those in ``allowed``, best first, when given) until none is left."""
+    """Add the best significant candidate until none is left (only those in ``allowed``, best first, when
+    given: the steps told again after the backward pass)."""
     steps: list[Step] = []
     current = start
     tested: list[CandidateTest] = []
     for _ in range(rule.max_steps if allowed is None else len(allowed)):
-        tested = _round(obs, current, rule, not_testable)
-        pool = [t for t in tested if t.significant] if allowed is None else \
-            [t for t in tested if t.effect.label in allowed and t.effect.label not in
-             {e.label for e in current.effects[len(start.effects):]}]
-        if not pool:
+        if allowed is None:
+            tested = _round(obs, current, rule, not_testable)
+            best = _pick(tested)
+        else:
+            done = {e.label for e in current.effects[len(start.effects):]}
+            left = allowed - done
+            tested = _round(obs, current, rule, not_testable, catch_all=any(lb in CATCH_ALL for lb in left))
+            pool = [t for t in tested if t.effect.label in left]
+            best = next((t for t in pool if t.effect.type not in CATCH_ALL), pool[0] if pool else None)
+        if best is None:
             break
-        best = pool[0]
         assert best.fit is not None
-        current = best.fit
+        current = fit_model(obs, best.fit.effects)  # all wavelengths refined, standard errors
         steps.append(Step(best, current, noise_estimate(obs, current), tuple(tested)))
     if allowed is not None:
         tested = _round(obs, current, rule, not_testable)
@@ -350,7 +381,7 @@ def _forward(obs: Observations, start: Fit, rule: Rule, not_testable: dict[str, 
 
 
 def _without(obs: Observations, fit: Fit, j: int) -> Fit:
-    return fit_model(obs, fit.effects[:j] + fit.effects[j + 1:])
+    return fit_model(obs, fit.effects[:j] + fit.effects[j + 1:], standard_errors=False)
 
 
 def _backward(obs: Observations, final: Fit, n_model: int, rule: Rule) -> Fit | None:
@@ -360,12 +391,14 @@ def _backward(obs: Observations, final: Fit, n_model: int, rule: Rule) -> Fit | 
     for _ in range(2 * rule.max_steps):
         for j in range(n_model, len(current.effects)):
             reduced = _without(obs, current, j)
-            tests = _round(obs, reduced, rule, {})
+            table = current.effects[j].type in CATCH_ALL
+            tests = _round(obs, reduced, rule, {}, catch_all=table)
             own = next((t for t in tests if t.effect.label == current.effects[j].label), None)
             if own is None or not own.significant:
                 current, changed = reduced, True
                 break
-            best = next(t for t in tests if t.significant)
+            best = _pick(tests) if not table else next(t for t in tests if t.significant)
+            assert best is not None
             if best.effect.label != own.effect.label and best.delta_bic < own.delta_bic:
                 assert best.fit is not None
                 current, changed = best.fit, True
@@ -377,16 +410,22 @@ def _backward(obs: Observations, final: Fit, n_model: int, rule: Rule) -> Fit | 
 
 def _indistinguishable(obs: Observations, final: Fit, j: int, rule: Rule) -> list[Effect]:
     """Candidates that, in place of the ``j``-th effect of the final model, are significant and come within
-    the BIC margin of it, and add nothing significant once it is in the model."""
+    the BIC margin of it, and add nothing significant once it is in the model.  A candidate that strictly
+    contains the effect (a free table around a linear scale) is not an alternative: parsimony prefers the
+    effect; the reverse (a linear scale inside a free table of the model) is ambiguous."""
     reduced = _without(obs, final, j)
-    tests = _round(obs, reduced, rule, {})
+    tests = _round(obs, reduced, rule, {}, catch_all=final.effects[j].type in CATCH_ALL)
     own = next((t for t in tests if t.effect.label == final.effects[j].label), None)
     if own is None:
         return []
-    k = len(tests)
+    k = len(candidate_effects(obs, reduced.effects)[0])
+    mine = basis.columns(final.effects[j], obs).matrix
     out = []
     for other in tests:
         if other is own or not other.significant or other.delta_bic - own.delta_bic >= rule.bic_margin:
+            continue
+        theirs = basis.columns(other.effect, obs).matrix  # a strictly more general candidate: parsimony
+        if _inside(mine, theirs, obs.nuisance) and not _inside(theirs, mine, obs.nuisance):
             continue
         fresh = Effect(other.effect.type, _zeroed(other.effect), other.effect.free)
         again = test_candidate(obs, final, fresh, k, rule)
@@ -400,3 +439,19 @@ def _zeroed(e: Effect) -> dict[str, Any]:
     if e.type == "periodic":
         params["wavelength_mm"] = None
     return params
+
+
+NESTED_R2 = 0.999
+
+
+def _inside(cols: np.ndarray, span: np.ndarray, nuisance: np.ndarray) -> bool:
+    """Every column of ``cols`` lies in the span of ``span`` and the nuisance (R² ≥ 0.999 of what the
+    nuisance leaves of it)."""
+    def rest(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        bs = b / np.maximum(np.linalg.norm(b, axis=0), 1e-300)
+        return a - bs @ np.linalg.lstsq(bs, a, rcond=None)[0]
+
+    base = np.sum(rest(cols, nuisance) ** 2, axis=0)
+    left = np.sum(rest(cols, np.column_stack([nuisance, span])) ** 2, axis=0)
+    ok = base > 0
+    return bool(np.all(left[ok] <= (1 - NESTED_R2) * base[ok]))
