@@ -11,7 +11,7 @@ summary, an HTML report with a plot per step, and the final model as a reusable 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -233,7 +233,10 @@ def diagnose_run(run_dir: Path | str, model: EffectModel | Path | str | None = N
     if model.kind != run.kind:
         raise UserError(f"{model.source} is a {model.kind} model; {run.path} is a {run.kind} run")
     channels, notes = [], []
-    for obs in run_observations(run, model):
+    observed = run_observations(run, model)
+    usable = [obs for obs in observed if obs.n >= 3]
+    rule = replace(rule or Rule(), channels=len(usable))  # alpha is shared by the channels of the run
+    for obs in observed:
         notes += obs.notes
         effects = [e for e in model.effects if e.spec.channel == obs.channel]
         if obs.n < 3:

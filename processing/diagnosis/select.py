@@ -5,9 +5,9 @@ significant, add it, and repeat until nothing significant is left (docs/diagnosi
 Selection rule, per step, over the K candidates that can be tested on the channel — a
 candidate is *significant* when all of:
 
-1. the F-test of its added parameters has p < α / K (Bonferroni over the candidates; for a
-   periodic effect with a searched wavelength p is first corrected for the M independent
-   wavelengths scanned, 1 − (1 − p)^M), α = 0.001;
+1. the F-test of its added parameters has p < α / (C·K) (Bonferroni over the K candidates of
+   the channel and the C channels of the run; for a periodic effect with a searched wavelength p
+   is first corrected for the M independent wavelengths scanned, 1 − (1 − p)^M), α = 0.001;
 2. it lowers the Schwarz criterion by at least 10 (BIC; "very strong" evidence, Kass & Raftery
    1995);
 3. it lowers the grouped cross-validation RMSE (folds = whole approach series, or pass and
@@ -41,12 +41,14 @@ class Rule:
     """Thresholds of the selection rule."""
 
     alpha: float = 1e-3
+    channels: int = 1  # channels diagnosed in the run: each gets alpha / channels
     bic_margin: float = 10.0
     max_steps: int = 8
     region_alpha: float = 0.05
 
     def to_dict(self) -> dict[str, Any]:
-        return {"alpha_per_step": self.alpha, "bonferroni": "alpha / number of candidates tested",
+        return {"alpha_per_step": self.alpha, "channels": self.channels,
+                "bonferroni": "alpha / (channels x candidates of the channel)",
                 "bic_decrease_min": self.bic_margin, "cv": "grouped cross-validation RMSE must decrease",
                 "ambiguity": f"another significant candidate within {self.bic_margin:g} of the best BIC that "
                              "adds nothing significant after it", "max_steps": self.max_steps}
@@ -129,6 +131,7 @@ def _labelled(keys: list[Any], label: Any) -> tuple[np.ndarray, list[str]]:
 
 
 # -- candidates -------------------------------------------------------------------------------------------------
+MAX_PERIODIC = 2  # a screw lead and one more period; a longer Fourier series is a table, not a diagnosis
 POSITIONING_CANDIDATES = ("linear_scale", "quadratic", "backlash", "periodic", "thermal_drift", "thermal_growth",
                           "abbe", "dead_path", "error_table")
 NEEDS_TEXT = {"time_min": "no time_s recorded for every point", "index_change": "no air values recorded",
@@ -173,6 +176,10 @@ def candidate_effects(obs: Observations, model: tuple[Effect, ...]) -> tuple[lis
     out = []
     for e in wanted:
         if e.label in free_labels:
+            continue
+        if e.type == "periodic" and sum(m.type == "periodic" for m in model) >= MAX_PERIODIC:
+            skipped["periodic"] = (f"the model has {MAX_PERIODIC} periodic effects; more structure along the "
+                                   "travel is left to a free error table")
             continue
         missing = [k for k in basis.needs(e.type, e.variant) if not obs.has(k)]
         if missing:
@@ -235,7 +242,7 @@ def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int,
     if free_wavelength(cand):
         m_eff = wavelength_grid(obs.values["position_mm"])[1]
         p = float(-np.expm1(m_eff * np.log1p(-min(p, 1 - 1e-16))))
-    threshold = rule.alpha / max(k_tested, 1)
+    threshold = rule.alpha / (max(k_tested, 1) * max(rule.channels, 1))
     before = current_folds or fold_fits(current.design, current.target, obs.folds)
     cv_before, cv_after = cv_rmse([before, fold_fits(fit.design, fit.target, obs.folds)])
     significant = (p < threshold and dbic <= -rule.bic_margin
