@@ -6,7 +6,9 @@ A scenario file adds the test cycle, timing and noise: for positioning the ``[ax
 ``[trigger]`` and ``[environment]`` tables of a positioning set-up (docs/setup-positioning.toml)
 plus ``[conditions]``, ``[motion]`` and ``[noise]``; for straightness the ``[block]`` and
 optional ``[geometry]`` tables of a straightness set-up plus ``[timing]``, ``[surface]`` and
-``[noise]``.  Every problem is a one-line :class:`SetupError` naming the file and the key.
+``[noise]``.  The cycle tables (``[axis]``, ``[block]``) are needed by ``guideway simulate`` only:
+``acquire --simulate`` runs the set-up's cycle.  Every problem is a one-line :class:`SetupError`
+naming the file and the key.
 """
 
 from __future__ import annotations
@@ -137,8 +139,9 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "scenario") -> Sce
         setup_keys = ("axis", "trigger", "environment", "machine", "operator", "notes")
         setup_source = {"kind": "positioning", **{k: data[k] for k in setup_keys if k in data}}
         top.used.update(setup_keys)
-        setup = positioning_setup_from_dict(setup_source, source)
-        if setup.axis_type != "linear":
+        # the cycle is optional: acquire --simulate takes it from the set-up file
+        setup = positioning_setup_from_dict(setup_source, source) if "axis" in data else None
+        if setup is not None and setup.axis_type != "linear":
             raise SetupError(f"{source}: [axis] type: scenarios simulate linear axes")
         noise = _numbers(top.table("noise"), POSITIONING_NOISE)
         conditions = _numbers(top.table("conditions"), CONDITIONS)
@@ -156,7 +159,7 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "scenario") -> Sce
     top.used.update(setup_keys)
     if "geometry" not in setup_source:
         setup_source["geometry"] = default_geometry()
-    ssetup = straightness_setup_from_dict(setup_source, source)
+    ssetup = straightness_setup_from_dict(setup_source, source) if "block" in data else None
     noise = _numbers(top.table("noise"), STRAIGHTNESS_NOISE)
     timing = _numbers(top.table("timing"), TIMING)
     if not timing["seconds_per_station"] > 0:

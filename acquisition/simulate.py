@@ -13,6 +13,7 @@ import uuid
 from pathlib import Path
 from typing import Any
 
+from .errors import SetupError
 from .runstore import RunStore
 from .scenario import Scenario, load_scenario
 from .simulation import simulate_positioning_points, simulate_straightness_points
@@ -30,6 +31,10 @@ def simulate_run(scenario: Scenario | Path | str, out: Path | str, *, seed: int 
     seed = scenario.seed if seed is None else seed
     simulation = {"seed": seed, "noise": noise, "scenario": scenario.source, "transport": "none (guideway simulate)"}
     header: dict[str, Any]
+    if scenario.positioning is None and scenario.straightness is None:
+        table = "[axis]" if scenario.kind == "positioning" else "[block]"
+        raise SetupError(f"{scenario.source}: no {table} table: simulating a run needs its test cycle "
+                         f"(see docs/diagnosis.md)")
     if scenario.kind == "positioning":
         assert scenario.positioning is not None
         rows = simulate_positioning_points(scenario, seed, noise)
@@ -42,7 +47,7 @@ def simulate_run(scenario: Scenario | Path | str, out: Path | str, *, seed: int 
     header["notes"] = "; ".join(filter(None, [header.get("notes", ""), f"simulated from {scenario.source}"]))
     store = RunStore(out, header)
     store("start", {"kind": scenario.kind, "uid": uuid.uuid4().hex})
-    for row in rows:  # plain numbers (numpy scalars would not be written in round-trip form)
-        store("event", {"data": {k: v if isinstance(v, int) else float(v) for k, v in row.items()}})
+    # plain numbers (numpy scalars would not be written in round-trip form)
+    store.record_many([{k: v if isinstance(v, int) else float(v) for k, v in row.items()} for row in rows])
     store("stop", {"exit_status": "success", "reason": f"simulated ({len(rows)} points, seed {seed})"})
     return store.run_dir, store.points_written

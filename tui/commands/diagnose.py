@@ -5,11 +5,17 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
 
 def run(args: argparse.Namespace) -> int:
+    # The fits are small (at most n x ~110): a BLAS thread pool only contends with itself and other
+    # processes (benchmarks/bench_diagnose.py); one thread unless the user says otherwise.  Set before
+    # numpy is first imported by this command.
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
     from acquisition.diagnose import diagnose_run, write_model
     from acquisition.runstore import load_run
 
