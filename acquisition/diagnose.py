@@ -23,12 +23,11 @@ from processing.diagnosis.observations import Observations, positioning_observat
 from processing.diagnosis.select import ChannelDiagnosis, Rule, diagnose_channel
 from processing.effects import Effect
 from processing.environment import EnvironmentSettings
-from processing.geometry import BlockGeometry
 from processing.passes import check_order
 
 from .errors import RunFormatError, UserError
 from .evaluate_positioning import positioning_deviations
-from .evaluate_straightness import check_finite
+from .evaluate_straightness import check_finite, run_geometry
 from .runstore import LoadedRun, load_run, write_text_atomic
 from .scenario import EffectModel, empty_model, load_model, model_toml
 
@@ -206,10 +205,7 @@ def _positioning(run: LoadedRun) -> Observations:
 
 
 def _straightness(run: LoadedRun, reference: bool) -> tuple[Observations, Observations]:
-    try:
-        geometry = BlockGeometry.from_dict(run.meta["setup"]["geometry"])
-    except (KeyError, TypeError, ValueError) as exc:
-        raise RunFormatError(f"{run.path}/run.json: invalid setup.geometry ({exc})") from exc
+    geometry = run_geometry(run)
     if len(run.points) < 3:
         raise RunFormatError(f"{run.path}: {len(run.points)} point(s) recorded; too few to diagnose")
     check_finite(run, "exact")

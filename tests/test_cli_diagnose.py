@@ -129,3 +129,16 @@ def test_bad_diagnose_input_is_a_one_line_error(tmp_path: Path, capsys) -> None:
     assert code == 2 and "no such run directory" in err
     code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(tmp_path / "missing.toml"))
     assert code == 2 and err.startswith("guideway: error:")
+
+
+def test_documented_examples_load() -> None:
+    from acquisition.scenario import load_model, load_scenario
+
+    root = Path(__file__).resolve().parents[1] / "docs"
+    pos = load_scenario(root / "scenario-positioning.toml")
+    assert pos.positioning is not None and len(pos.positioning.targets) == 21
+    assert [e.type for e in pos.effects] == ["backlash", "thermal_growth", "periodic"]
+    st = load_scenario(root / "scenario-straightness.toml")
+    assert st.straightness is not None and st.straightness.return_pass
+    model = load_model(root / "model-positioning.toml")
+    assert [(e.type, sorted(e.free)) for e in model.effects] == [("backlash", ["reversal_um"])]

@@ -100,3 +100,16 @@ def test_scenario_of_the_wrong_kind_is_a_one_line_error(tmp_path: Path, capsys) 
     code = main(["acquire", "straightness", "--setup", str(tmp_path / "setup.toml"), "--out", str(tmp_path / "run"),
                  "--scenario", str(tmp_path / "scenario.toml")])
     assert code == 2 and "--scenario needs --simulate" in capsys.readouterr().err
+
+
+def test_the_simulation_table_of_a_straightness_setup_is_checked() -> None:
+    import pytest
+
+    from acquisition.errors import SetupError
+
+    text = (ROOT / "docs" / "setup-straightness.toml").read_text()
+    data = tomllib.loads(text)
+    with pytest.raises(SetupError, match="unknown key 'scenaro' in \\[simulation\\]"):
+        straightness_setup_from_dict({**data, "simulation": {"scenaro": "x.toml"}}, "setup")
+    assert straightness_setup_from_dict({**data, "simulation": {"scenario": "/abs/x.toml"}}, "setup").scenario \
+        == "/abs/x.toml"

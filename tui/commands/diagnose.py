@@ -9,6 +9,8 @@ import os
 import sys
 from pathlib import Path
 
+from .process import warn_about_run
+
 
 def run(args: argparse.Namespace) -> int:
     # The fits are small (at most n x ~110): a BLAS thread pool only contends with itself and other
@@ -19,12 +21,7 @@ def run(args: argparse.Namespace) -> int:
     from acquisition.diagnose import diagnose_run, write_model
     from acquisition.runstore import load_run
 
-    run_ = load_run(args.run_dir)
-    for w in run_.warnings:
-        print(f"guideway: warning: {w}", file=sys.stderr)
-    if run_.meta.get("status") != "complete":
-        print(f"guideway: warning: run status is {run_.meta.get('status')!r}; diagnosing the "
-              f"{len(run_.points)} point(s) recorded", file=sys.stderr)
+    warn_about_run(load_run(args.run_dir), "diagnosing the")
     diagnosis = diagnose_run(args.run_dir, args.model)
     written = []
     if args.report is not None:
