@@ -93,7 +93,8 @@ class Diagnosis:
             "channels": {ch.obs.channel: {"points": ch.obs.n, "baseline": _summary(ch.baseline),
                                           "final": _summary(ch.final), "noise_um": ch.noise.sigma_um,
                                           "noise_source": ch.noise.source, "named": ch.named,
-                                          "cv_folds": ch.obs.fold_basis} for ch in self.channels},
+                                          "cv_folds": ch.obs.fold_basis, "stands_out": _stands_out(ch),
+                                          "disagreement": ch.disagreement} for ch in self.channels},
         }
         return _clean(out)
 
@@ -138,6 +139,12 @@ class Diagnosis:
                   f"start model: {self.model.source}",
                   f"final RMS {self.primary.final.rms_um:.4f} um, noise {self.primary.noise.sigma_um:.4f} um"]
         return model_toml(self.run.kind, entries, header)
+
+
+def _stands_out(ch: ChannelDiagnosis) -> list[str]:
+    """The groupings (position, run, direction, time) in which some group of the channel's residual under
+    the model stands out beyond the noise."""
+    return [k for k, v in ch.disagreement.items() if isinstance(v, dict) and v.get("stand_out")]
 
 
 def _summary(fit: Any) -> dict[str, float]:
