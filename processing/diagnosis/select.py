@@ -13,12 +13,15 @@ candidate is *significant* when all of:
 3. it lowers the grouped cross-validation RMSE (folds = whole approach series, or pass and
    station block; skipped where no fold can be held out).
 
-The best significant candidate (lowest BIC) is named — unless another significant candidate
-comes within 10 of its BIC and adds nothing significant once the best is in the model: then
-the two cannot be told apart on this run; the best is added to shrink the gap, but the step
-is reported as ambiguous and nothing is named.  A candidate lying in the span of a free effect
-of the final model (a linear scale inside a free error table) that would be significant
-without it is reported ambiguous with it as well.
+The best significant candidate (lowest BIC; a physical effect before a free table, which is
+tried only when no physical effect is significant) is added and the loop repeats.  A backward
+pass then drops an added effect that is not significant in the final model, or swaps it for a
+candidate that explains more in its place.  Ambiguity is judged in the final model: a
+candidate that, in place of one of its free effects, is significant, comes within 10 of its BIC
+and adds nothing significant once the effect is in, explains the same residual — both are
+reported as ambiguous and the step is not named (a candidate strictly more general than the
+effect, a table around a linear scale, is not a rival; a linear scale inside a free table of
+the model is).
 """
 
 from __future__ import annotations
