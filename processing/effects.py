@@ -72,12 +72,6 @@ class EffectType:
     meaning: str
     channel: str = "deviation"  # the observation it acts on: deviation | height | lin
 
-    def param(self, name: str) -> Param:
-        for p in self.params:
-            if p.name == name:
-                return p
-        raise KeyError(name)
-
     @property
     def fittable(self) -> tuple[str, ...]:
         return tuple(p.name for p in self.params if p.fittable)
