@@ -30,6 +30,7 @@ from .plans.straightness import ResumePoint, resume_point, straightness_plan
 from .positioning_setup import PositioningSetup, positioning_setup_from_dict
 from .rig import open_controller_rig, open_rig
 from .runstore import RunStore
+from .scenario import Scenario, load_scenario
 from .setup import DeviceSetup, StraightnessSetup, straightness_setup_from_run
 from .simulation import (
     REQUESTS_PER_SAMPLE,
@@ -94,15 +95,34 @@ def _print_outcome(outcome: RunOutcome, store: RunStore, out: Path, stream: Text
 
 @dataclass(frozen=True)
 class SimOptions:
-    """A simulated rig: world seed, instrument noise on/off, injected faults (mocks/faults.py)."""
+    """A simulated rig: world seed, instrument noise on/off, injected faults (mocks/faults.py), and the
+    scenario file whose effects the simulated devices apply (acquisition/scenario.py; None: the set-up's
+    ``[simulation] scenario``, if any)."""
 
     seed: int = 0
     noise: bool = True
     faults: str | None = None
     wire_time: bool = True  # False: zero-latency emulators (benchmarks)
+    scenario: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return {"seed": self.seed, "noise": self.noise}
+        return {"seed": self.seed, "noise": self.noise, **({"scenario": self.scenario} if self.scenario else {})}
+
+    def resumed(self, stored: dict[str, Any]) -> SimOptions:
+        """The options of a resumed run: the seed, noise and scenario it started with (run.json ``simulation``)."""
+        return replace(self, seed=int(stored["seed"]), noise=bool(stored["noise"]),
+                       scenario=stored.get("scenario") or None)
+
+
+def _scenario(simulate: SimOptions | None, setup_scenario: str, kind: str) -> tuple[SimOptions | None, Scenario | None]:
+    """The scenario of a simulated run (``--scenario`` before the set-up's), recorded in the options."""
+    path = (simulate.scenario or setup_scenario) if simulate is not None else None
+    if simulate is None or not path:
+        return simulate, None
+    scenario = load_scenario(path)
+    if scenario.kind != kind:
+        raise SetupError(f"{path} is a {scenario.kind} scenario; this is a {kind} run")
+    return replace(simulate, scenario=str(path)), scenario
 
 
 @dataclass(frozen=True)
@@ -196,8 +216,8 @@ def run_straightness(
     out = Path(out)
     store, setup, rp = _open_store(setup, out, resume)
     if simulate is not None and resume and "simulation" in store.meta:
-        stored = store.meta["simulation"]  # the same simulated world the run started with
-        simulate = SimOptions(int(stored["seed"]), bool(stored["noise"]), simulate.faults, simulate.wire_time)
+        simulate = simulate.resumed(store.meta["simulation"])  # the same simulated world the run started with
+    simulate, scenario = _scenario(simulate, setup.scenario, "straightness")
     sim = None
     cleanup = ExitStack()  # simulated devices and their link directory, closed when the run ends
     if simulate is not None:
@@ -209,7 +229,8 @@ def run_straightness(
             sim = start_simulated_rig(seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
                                       sensor=setup.devices.sensor_protocol, baudrate=setup.devices.sensor_baud,
                                       block_length_mm=setup.block_length_mm, geometry=setup.geometry,
-                                      wire_time=simulate.wire_time, sensor_link=Path(link_dir) / "sensor")
+                                      wire_time=simulate.wire_time, sensor_link=Path(link_dir) / "sensor",
+                                      scenario=scenario)
             cleanup.callback(sim.close)
             transmitter = _simulated_transmitter(setup.devices.environment_url, sim.world, stream, cleanup)
         devices = DeviceSetup(sim.sensor_protocol, sim.sensor_url, sim.sensor_baudrate, sim.controller_url,
@@ -314,8 +335,8 @@ def run_positioning(
         store = RunStore(out, {**setup.header(), **({"setup_source": setup_source} if setup_source else {})})
         store.prepare()
     if simulate is not None and resume and "simulation" in store.meta:
-        stored = store.meta["simulation"]
-        simulate = SimOptions(int(stored["seed"]), bool(stored["noise"]), simulate.faults)
+        simulate = simulate.resumed(store.meta["simulation"])
+    simulate, scenario = _scenario(simulate, setup.scenario, "positioning")
     sim = None
     cleanup = ExitStack()  # simulated devices, closed when the run ends
     url = setup.devices.controller_url
@@ -323,7 +344,7 @@ def run_positioning(
     if simulate is not None:
         with _closed_on_error(cleanup):
             sim = start_simulated_machine(setup, seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
-                                          start_at=rp.next_index if rp is not None else 0)
+                                          start_at=rp.next_index if rp is not None else 0, scenario=scenario)
             cleanup.callback(sim.close)
             refuse_faults_that_cannot_fire(sim.faults, sensor=False)
             url = sim.controller_url

@@ -87,6 +87,14 @@ def check_finite(run: LoadedRun, method: str) -> None:
             )
 
 
+def run_geometry(run: LoadedRun) -> BlockGeometry:
+    """The set-up geometry of a straightness run (run.json ``setup.geometry``); a one-line error if invalid."""
+    try:
+        return BlockGeometry.from_dict(run.meta["setup"]["geometry"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise RunFormatError(f"{run.path}/run.json: invalid setup.geometry ({exc})") from exc
+
+
 def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, mc_trials: int | None = None,
                               mc_seed: int = 0, accept_out_of_range: bool = False) -> StraightnessEvaluation:
     """Evaluate a loaded straightness run.
@@ -95,10 +103,7 @@ def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, m
     :func:`default_mc_trials` of the number of points.  Values outside the set-up's validation
     limits are refused unless ``accept_out_of_range`` (acquisition.limits).
     """
-    try:
-        geometry = BlockGeometry.from_dict(run.meta["setup"]["geometry"])
-    except (KeyError, TypeError, ValueError) as exc:
-        raise RunFormatError(f"{run.path}/run.json: invalid setup.geometry ({exc})") from exc
+    geometry = run_geometry(run)
     if len(run.points) < 2:
         raise RunFormatError(f"{run.path}: {len(run.points)} point(s) recorded; need at least 2 to evaluate")
     try:

@@ -11,7 +11,7 @@ from processing.iso230_2 import LONG_AXIS_MM
 
 from .errors import SetupError
 from .iso230 import CYCLES, Stop, check_targets, cycle, linear_targets, rotary_targets
-from .setup import DeviceSetup, _Table, check_devices, read_toml
+from .setup import DeviceSetup, _Table, check_devices, read_toml, scenario_path
 from .tolerance import positioning_tolerance
 
 TRIGGERS = ("in-position", "stability", "manual")
@@ -105,6 +105,7 @@ class PositioningSetup:
     operator: str = ""
     notes: str = ""
     tolerance: dict[str, float] = field(default_factory=dict)  # [tolerance], acquisition.tolerance
+    scenario: str = ""  # [simulation] scenario: the file --simulate takes its effects from ("" = none)
 
     def __post_init__(self) -> None:
         if self.axis_type not in AXIS_TYPES:
@@ -224,13 +225,15 @@ def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> 
     simulation = SimulatedAxisSetup(**{k: sim.get(k, float, getattr(s, k)) for k in asdict(s)})
     tolerance = positioning_tolerance(top.table("tolerance").data, "arcsec" if axis_type == "rotary" else "um",
                                       source)
+    scenario = scenario_path(sim.get("scenario", str, ""), source)
     for t in (top, ax, tr, en, ctl, gc, sim):
         t.check_unknown()
     setup = PositioningSetup(
         axis_name=name, axis_type=axis_type, targets=targets, runs=runs, cycle=cyc, overrun=overrun,
         feed_per_min=feed, datum=datum, trigger=trigger, environment=environment, devices=devices,
         dialect=dialect, program_number=program_number,
-        max_deviation=max_dev, simulation=simulation, long_axis=long_axis, tolerance=tolerance, **text,
+        max_deviation=max_dev, simulation=simulation, long_axis=long_axis, tolerance=tolerance,
+        scenario=scenario, **text,
     )
     if explicit is not None:  # generated targets follow the rule by construction
         span = end - start if end is not None and axis_type == "linear" else None

@@ -101,6 +101,7 @@ class StraightnessSetup:
     operator: str = ""
     notes: str = ""
     tolerance: dict[str, Any] = field(default_factory=dict)  # [tolerance], acquisition.tolerance
+    scenario: str = ""  # [simulation] scenario: the file --simulate takes its effects from ("" = none)
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.block_length_mm) and self.block_length_mm > 0):
@@ -307,13 +308,22 @@ def straightness_setup_from_dict(data: dict[str, Any], source: str = "setup") ->
     unc = top.table("uncertainty")
     uncertainty = {k: unc.get(k, float) for k in list(unc.data)}
     tolerance = straightness_tolerance(top.table("tolerance").data, source)
-    for t in (top, blk, geo, sen, ctl, wu, va):
+    sim = top.table("simulation")
+    scenario = scenario_path(sim.get("scenario", str, ""), source)
+    for t in (top, blk, geo, sen, ctl, wu, va, sim):
         t.check_unknown()
     return StraightnessSetup(
         block_length_mm=length, stations=stations, geometry=geometry, devices=devices,  # type: ignore[arg-type]
         samples_per_reading=samples, return_pass=return_pass, warmup=warmup, validation=validation,
-        uncertainty=uncertainty, tolerance=tolerance, **text,
+        uncertainty=uncertainty, tolerance=tolerance, scenario=scenario, **text,
     )
+
+
+def scenario_path(value: str, source: str) -> str:
+    """``[simulation] scenario``: a path relative to the set-up file's directory (as given otherwise)."""
+    if not value or Path(value).is_absolute() or not Path(source).is_file():
+        return value
+    return str((Path(source).parent / value).resolve())
 
 
 def load_straightness_setup(path: Path | str) -> StraightnessSetup:

@@ -11,28 +11,34 @@ real drivers, exactly as on a real rig.
 from __future__ import annotations
 
 import contextlib
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from pymodbus import FramerType
 
+from mocks.effects import AngularMotion, AxisEffects, Conditions, SensorEffects, straightness_parts
 from mocks.faults import FaultPlan, FaultSpecError
 from mocks.interferometer import InterferometerEmulator, ModbusServerThread, start_controller
 from mocks.keyence_lkg import KeyenceLKGEmulator
 from mocks.machine_axis import AxisErrors, InPositionRegisters, LinearOptics, MachineAxis, MachineStop
 from mocks.me_ild1420 import ILD1420Emulator, StreamPacer
+from mocks.offline import StepClock, axis_captures, world_captures
 from mocks.panasonic_hlg1 import PanasonicHLG1Emulator
 from mocks.serial_endpoints import ByteEmulator, PtyEndpoint
-from mocks.world import BlockSetup, Environment, Noise, World
+from mocks.world import BlockSetup, Environment, Guideway, Noise, Wave, World
 from mocks.xymd02 import XYMD02Emulator, start_xymd02, world_source
 from processing.environment import EnvironmentSettings
 from processing.geometry import BlockGeometry, SensorSign
 
 from .errors import UserError
 from .positioning_setup import PositioningSetup, SimulatedAxisSetup
+
+if TYPE_CHECKING:
+    from .scenario import Scenario
 
 SensorSource = Callable[..., float | None]
 """What a sensor emulator reads: ``source(output=1)`` gives the value in mm in the
@@ -273,6 +279,7 @@ def start_simulated_rig(
     block_length_mm: float | None = None,
     geometry: BlockGeometry | None = None,
     wire_time: bool = True,
+    scenario: Scenario | None = None,
 ) -> SimulatedRig:
     """Start the emulators on real transports and return their endpoints.
 
@@ -287,7 +294,8 @@ def start_simulated_rig(
     ``block_length_mm`` and ``geometry`` build the simulated block to match a
     set-up file (default: :func:`default_block`).  ``wire_time=False``: the
     sensor answers without the serial line's transfer time (zero-latency
-    emulators, for benchmarks).
+    emulators, for benchmarks).  ``scenario``: a straightness scenario whose
+    effects, surface and noise the simulated world and sensor take on.
     """
     if controller not in CONTROLLER_TRANSPORTS:
         raise UserError(f"controller transport {controller!r}: use one of {', '.join(CONTROLLER_TRANSPORTS)}")
@@ -303,14 +311,20 @@ def start_simulated_rig(
         # the head is set up (mounted, or its output inverted) to read with the set-up's sign
         sensor_sign = geometry.sensor_sign
     flip = 1.0 if sensor_sign == kind.sensor_sign else -1.0
-    world = World(seed=seed, noise=Noise() if noise else Noise.off(), block=block)
+    sensor_fx, started = SensorEffects(), time.monotonic()
+    if scenario is not None:
+        world, sensor_fx = _scenario_world(scenario, block or BlockSetup(), seed, noise)
+    else:
+        world = World(seed=seed, noise=Noise() if noise else Noise.off(), block=block)
     block = world.block
 
     def sensor_value(_output: int = 1) -> float | None:
         d = world.sensor_distance_mm()
         bound_sample_log(world)
+        if d is None:
+            return None
         # surface height at the sensor (height sign: the surface closer -> larger), as the family reports it
-        return None if d is None else kind.reading(flip * (block.standoff_mm - d))
+        return kind.reading(flip * sensor_fx.reading_mm(block.standoff_mm - d, (time.monotonic() - started) / 60))
 
     emulator = kind.factory(sensor_value, faults=plan)
     pty = PtyEndpoint(emulator, baudrate=baud if wire_time else 0, faults=plan, link=sensor_link)
@@ -392,19 +406,28 @@ def _optics(setup: PositioningSetup) -> LinearOptics:
 
 
 def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bool = True,
-                            faults: str | None = None, start_at: int = 0) -> SimulatedMachine:
+                            faults: str | None = None, start_at: int = 0,
+                            scenario: Scenario | None = None) -> SimulatedMachine:
     """Start a machine axis that runs exactly the set-up's cycle, read by a Modbus TCP controller.
 
     The in-position handshake follows the trigger mode: the PLC waits for the tool's acknowledge
     (in-position), for Cycle Start (manual, M00 at each target) or for the dwell time (stability).
     ``start_at``: the program is restarted at the block of that measured stop (0-based; resume).
+    ``scenario``: a positioning scenario replaces the set-up's ``[simulation]`` errors and conditions
+    by its effects, conditions, angular motion and noise (its time-dependent effects run on the wall
+    clock, as the run's ``time_s`` does).
     """
     plan = parse_faults(faults)
     stops = [MachineStop(s.position, s.target_index, s.run, s.direction) for s in setup.stops()]
-    axis = MachineAxis(stops, rotary=setup.axis_type == "rotary", errors=_axis_errors(setup, noise),
-                       feed_per_min=setup.feed_per_min, dwell_s=setup.trigger.dwell_s,
-                       handshake=HANDSHAKE[setup.trigger.mode], datum=setup.datum, seed=seed,
-                       environment=_environment(setup.simulation), optics=_optics(setup))
+    if scenario is not None:
+        if setup.axis_type != "linear":
+            raise UserError("a scenario simulates a linear axis; the set-up is for a rotary one")
+        model: dict[str, Any] = {**_scenario_axis(scenario, noise), "wall_clock_effects": True}
+    else:
+        model = {"errors": _axis_errors(setup, noise), "environment": _environment(setup.simulation)}
+    axis = MachineAxis(stops, rotary=setup.axis_type == "rotary", feed_per_min=setup.feed_per_min,
+                       dwell_s=setup.trigger.dwell_s, handshake=HANDSHAKE[setup.trigger.mode], datum=setup.datum,
+                       seed=seed, optics=_optics(setup), **model)
     emulator = InterferometerEmulator(axis, word_order=setup.devices.word_order, faults=plan,  # type: ignore[arg-type]
                                       extension=InPositionRegisters(axis, setup.devices.word_order))
     if start_at:
@@ -431,3 +454,72 @@ def start_simulated_transmitter(environment: World | MachineAxis) -> SimulatedTr
     """Serve an XY-MD02 emulator fed by ``environment.environment_now()``; ``.url`` opens it."""
     server = start_xymd02(XYMD02Emulator(world_source(environment)))  # type: ignore[arg-type]
     return SimulatedTransmitter(server.url, server)
+
+
+# -- scenarios (acquisition/scenario.py): effects put behind the simulated devices -----------------------------
+def _scenario_axis(scenario: Scenario, noise: bool) -> dict[str, Any]:
+    """MachineAxis arguments of a positioning scenario: no built-in errors, its effects and conditions."""
+    n = scenario.noise
+    c = scenario.conditions
+    return {
+        "errors": AxisErrors(pitch=(), slope_per_m=0.0, backlash=0.0, periodic=0.0, thermal_per_m_per_h=0.0,
+                             noise=n["reading_um"] if noise else 0.0),
+        "environment": Conditions(**c),
+        "effects": AxisEffects(scenario.effect_specs(), AngularMotion(**scenario.motion),
+                               n["angle_urad"] if noise else 0.0),
+    }
+
+
+def _scenario_world(scenario: Scenario, recorded: BlockSetup, seed: int, noise: bool,
+                    clock: Callable[[], float] = time.monotonic) -> tuple[World, SensorEffects]:
+    """The simulated world of a straightness scenario built around the ``recorded`` block, and the sensor's
+    own effects."""
+    base = Guideway.from_seed(seed)
+    if scenario.surface is not None:
+        base = Guideway(waves=tuple(Wave(*w) for w in scenario.surface["waves"]),
+                        slope_urad=scenario.surface["slope_urad"])
+    block, surface, sensor = straightness_parts(scenario.effect_specs(), recorded, base)
+    world = World(guideway=surface, block=block, noise=Noise(**scenario.noise) if noise else Noise.off(),
+                  seed=seed, clock=clock)
+    return world, sensor
+
+
+def simulate_positioning_points(scenario: Scenario, seed: int, noise: bool = True) -> list[dict[str, Any]]:
+    """points.csv records of a positioning run of ``scenario`` (docs/run-format.md), the machine axis
+    driven through the scenario's cycle without transports; ``time_s`` is machine time."""
+    setup = scenario.positioning
+    assert setup is not None
+    stops = [MachineStop(s.position, s.target_index, s.run, s.direction) for s in setup.stops()]
+    axis = MachineAxis(stops, feed_per_min=setup.feed_per_min, dwell_s=setup.trigger.dwell_s, handshake="ack",
+                       datum=setup.datum, seed=seed, optics=_optics(setup), **_scenario_axis(scenario, noise))
+    rows = []
+    for rec in axis_captures(axis):
+        stop, c, env = rec["stop"], rec["capture"], rec["environment"]
+        rows.append({"run": stop.run, "direction": stop.direction, "target_index": stop.target_index,
+                     "target_mm": stop.position, "reading_mm": setup.datum + c.position_mm, "time_s": rec["time_s"],
+                     "stry_um": c.stry_um, "strz_um": c.strz_um, "pitch_urad": c.pitch_urad,
+                     "yaw_urad": c.yaw_urad, "roll_urad": c.roll_urad, "air_temp_c": env[0],
+                     "air_pressure_hpa": env[1], "humidity_pct": env[2], "material_temp_c": env[3]})
+    return rows
+
+
+def simulate_straightness_points(scenario: Scenario, seed: int, noise: bool = True) -> list[dict[str, Any]]:
+    """points.csv records of a straightness run of ``scenario`` (the gauge block placed by the simulated
+    technician, ``seconds_per_station`` apart, the sensor read with the set-up's sign)."""
+    setup = scenario.straightness
+    assert setup is not None
+    clock = StepClock()
+    world, sensor = _scenario_world(scenario, _block_for(setup.block_length_mm, setup.geometry), seed, noise,
+                                    clock)
+    sign = 1.0 if setup.geometry.sensor_sign == "height" else -1.0
+    rows = []
+    for rec in world_captures(world, clock, setup.steps(), samples=setup.samples_per_reading,
+                              seconds_per_step=scenario.timing["seconds_per_station"], sensor=sensor):
+        c, env, k = rec["capture"], rec["environment"], rec["station"]
+        x = setup.station_x_mm(k)
+        rows.append({"station": k, "x_mm": x, "time_s": rec["time_s"], "lin_um": (c.position_mm - x) * 1000.0,
+                     "stry_um": c.stry_um, "strz_um": c.strz_um, "pitch_urad": c.pitch_urad, "yaw_urad": c.yaw_urad,
+                     "roll_urad": c.roll_urad, "sensor_mm": sign * rec["sensor_mm"], "air_temp_c": env[0],
+                     "air_pressure_hpa": env[1], "humidity_pct": env[2], "material_temp_c": env[3],
+                     "pass": rec["pass"]})
+    return rows

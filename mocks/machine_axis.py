@@ -50,6 +50,7 @@ from pymodbus.simulator import DataType, SimData
 
 from processing.air_index import DEFAULT_CO2_PPM, DEFAULT_EQUATION, HENE_WAVELENGTH_NM, air_index
 
+from .effects import AxisEffects
 from .world import Capture, Environment
 
 # Registers (docs/modbus-map.md), holding registers, 0-based.
@@ -144,6 +145,10 @@ class MachineAxis:
     seed: int = 0
     environment: Environment = field(default_factory=Environment)
     optics: LinearOptics | None = None
+    # a scenario's effects (mocks/effects.py) on top of ``errors``; their time is machine time, or the
+    # wall-clock time since the axis was built with ``wall_clock_effects`` (behind the real transports)
+    effects: AxisEffects | None = None
+    wall_clock_effects: bool = False
 
     def __post_init__(self) -> None:
         if self.handshake not in ("ack", "cycle-start", "timed"):
@@ -164,6 +169,8 @@ class MachineAxis:
         self._at_overrun = False
         self.captured: list[tuple[int, float]] = []  # (stop index, true actual position) per capture
         self._n0: float | None = None  # air index at the first measured point (dead path)
+        self._effects_n0: float | None = None  # the same for a scenario's dead_path effect
+        self._t_built = time.monotonic()
 
     # -- units: errors are um (linear) or arcsec (rotary) -------------------------------------
     def _unit(self, e: float) -> float:
@@ -174,7 +181,23 @@ class MachineAxis:
         if self.index < 0:
             return self.datum
         s = self.stops[self.index]
-        return s.position + self._unit(self.errors.deviation(s.position, s.direction, self.machine_time_s / 3600))
+        e = self.errors.deviation(s.position, s.direction, self.machine_time_s / 3600)
+        if self.effects is not None:
+            e += self._effect_error(s)
+        return s.position + self._unit(e)
+
+    def _effect_error(self, s: MachineStop) -> float:
+        """The scenario effects' error (um) at stop ``s`` now."""
+        assert self.effects is not None
+        t_s = time.monotonic() - self._t_built if self.wall_clock_effects else self.machine_time_s
+        dn = 0.0
+        if self.effects.needs_air_index():
+            air_t, p, rh, _ = self.environment_now()
+            n = (self.optics or LinearOptics()).index(air_t, p, rh)
+            if self._effects_n0 is None:
+                self._effects_n0 = n
+            dn = n - self._effects_n0
+        return self.effects.error_um(s.position, s.direction, t_s / 60.0, dn)
 
     # -- the program ---------------------------------------------------------------------------
     def _advance(self) -> None:
@@ -234,8 +257,14 @@ class MachineAxis:
             noise = self._unit(float(self._rng.normal(0.0, self.errors.noise))) if self.errors.noise else 0.0
             rel = self._reading(actual + noise) - self._datum_actual
             self.last_angle_deg = rel if self.rotary else 0.0
+            pitch = yaw = 0.0
+            if self.effects is not None and self.index >= 0:
+                pitch, yaw = self.effects.motion.angles_urad(self.stops[self.index].position)
+                if self.effects.angle_noise_urad:
+                    pitch += float(self._rng.normal(0.0, self.effects.angle_noise_urad))
+                    yaw += float(self._rng.normal(0.0, self.effects.angle_noise_urad))
             return Capture(position_mm=0.0 if self.rotary else rel, stry_um=0.0, strz_um=0.0,
-                           pitch_urad=0.0, yaw_urad=0.0, roll_urad=0.0)
+                           pitch_urad=pitch, yaw_urad=yaw, roll_urad=0.0)
 
     def _reading(self, x20: float) -> float:
         """What the controller reports for the axis at ``x20`` (before subtracting the datum)."""
@@ -250,6 +279,9 @@ class MachineAxis:
     def environment_now(self) -> tuple[float, float, float, float]:
         with self._lock:
             env = self.environment
+            at = getattr(env, "at", None)  # a scenario's conditions (mocks/effects.py)
+            if at is not None:
+                return at(self.machine_time_s / 3600.0)
             drift = env.drift_c_per_h * self.machine_time_s / 3600.0
             return (env.air_temp_c + drift, env.air_pressure_hpa, env.humidity_pct,
                     env.material_temp_c + 0.5 * drift)

@@ -103,6 +103,10 @@ class HtmlPage:
     def key_values(self, items: Iterable[tuple[str, Any]], *, digits: int = 3) -> None:
         self.table(("item", "value"), items, digits=digits, text_columns=(0, 1), cls="kv")
 
+    def preformatted(self, text: str) -> None:
+        """Text shown as written (a file's contents)."""
+        self._parts.append(f"<pre>{esc(text)}</pre>")
+
     def alert(self, text: str) -> None:
         """A boxed warning the reader cannot miss (also when printed)."""
         self._parts.append(f'<p class="alert">{esc(text)}</p>')

@@ -21,6 +21,8 @@ COMMAND_MODULES = (
     "sim",
     "devices",
     "report",
+    "simulate",
+    "diagnose",
 )
 
 

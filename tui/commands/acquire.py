@@ -41,7 +41,10 @@ def run(args: argparse.Namespace) -> int:
         raise SetupError(f"a new run needs --setup SETUP.toml (see docs/setup-{args.kind}.toml)")
     if args.faults and not args.simulate:
         raise SetupError("--faults needs --simulate (faults are injected into the simulated devices)")
-    sim = SimOptions(args.seed, not args.no_noise, args.faults) if args.simulate else None
+    if args.scenario is not None and not args.simulate:
+        raise SetupError("--scenario needs --simulate (the scenario's effects are put behind the simulated devices)")
+    sim = SimOptions(args.seed, not args.no_noise, args.faults,
+                     scenario=str(args.scenario.resolve()) if args.scenario else None) if args.simulate else None
     source = read_toml(args.setup) if args.setup is not None else None
     if args.kind == "straightness":
         setup = straightness_setup_from_dict(source, str(args.setup)) if source is not None else None
@@ -77,4 +80,7 @@ def register(sub) -> None:  # noqa: ANN001
     a.add_argument("--no-noise", action="store_true", help="--simulate: switch the instrument noise off")
     a.add_argument("--faults", default=None, metavar="SPEC",
                    help="--simulate: inject device faults (DEVICE:KIND@N[xCOUNT][=ARG]), e.g. sensor:drop@9x1")
+    a.add_argument("--scenario", type=Path, default=None, metavar="FILE",
+                   help="--simulate: scenario file whose effects the simulated devices apply (docs/diagnosis.md; "
+                        "default: the set-up's [simulation] scenario)")
     a.set_defaults(func=run)

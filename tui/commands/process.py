@@ -6,17 +6,14 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 
 def run(args: argparse.Namespace) -> int:
     from acquisition.evaluate import process_run_dir
 
     run_, result = process_run_dir(args.run_dir, **evaluator_options(args))
-    for w in run_.warnings:
-        print(f"guideway: warning: {w}", file=sys.stderr)
-    if run_.meta.get("status") != "complete":
-        print(f"guideway: warning: run status is {run_.meta.get('status')!r}; processing the "
-              f"{len(run_.points)} point(s) recorded", file=sys.stderr)
+    warn_about_run(run_, "processing the")
     if not args.no_write:
         result.write(run_.path / "results")
     if args.json:
@@ -27,6 +24,16 @@ def run(args: argparse.Namespace) -> int:
         if not args.no_write:
             print(f"results written to {run_.path / 'results'}")
     return 0
+
+
+def warn_about_run(run_: Any, doing: str) -> None:
+    """The run's read warnings and, for an unfinished run, that only its recorded points are used
+    (``doing``: e.g. "processing the")."""
+    for w in run_.warnings:
+        print(f"guideway: warning: {w}", file=sys.stderr)
+    if run_.meta.get("status") != "complete":
+        print(f"guideway: warning: run status is {run_.meta.get('status')!r}; {doing} "
+              f"{len(run_.points)} point(s) recorded", file=sys.stderr)
 
 
 METHOD_CHOICES = ("exact", "first-order", "patent")

@@ -3,22 +3,16 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
-from .process import add_evaluator_options, evaluator_options
+from .process import add_evaluator_options, evaluator_options, warn_about_run
 
 
 def run(args: argparse.Namespace) -> int:
     from acquisition.report.build import build_report
     from acquisition.runstore import load_run
 
-    run_ = load_run(args.run_dir)
-    for w in run_.warnings:
-        print(f"guideway: warning: {w}", file=sys.stderr)
-    if run_.meta.get("status") != "complete":
-        print(f"guideway: warning: run status is {run_.meta.get('status')!r}; the report covers the "
-              f"{len(run_.points)} point(s) recorded", file=sys.stderr)
+    warn_about_run(load_run(args.run_dir), "the report covers the")
     path = build_report(args.run_dir, out=args.out, **evaluator_options(args))
     print(f"report written to {path}")
     return 0

@@ -1,0 +1,87 @@
+"""False-alarm rate of the diagnosis' selection rule, measured on null runs (nothing hidden).
+
+Simulates runs whose scenario hides no effect (``guideway simulate``, many seeds) and diagnoses
+each against the model it was simulated with: a run where anything is named, or called
+ambiguous, is a false alarm.  Positioning runs record time, pitch and yaw and a cycling air
+index, so every candidate of the library is tested; straightness runs have a return pass and are
+diagnosed without and with their reference profile.  Prints the rate per kind with its 95 %
+Clopper-Pearson interval (docs/diagnosis.md quotes the figures).
+
+    python benchmarks/diagnosis_false_alarm.py [--seeds 200]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+from scipy import stats  # noqa: E402
+
+from acquisition.diagnose import diagnose_run  # noqa: E402
+from acquisition.scenario import model_from_dict, scenario_from_dict  # noqa: E402
+from acquisition.simulate import simulate_run  # noqa: E402
+
+POSITIONING = {
+    "kind": "positioning",
+    "axis": {"start_mm": 0.0, "end_mm": 1000.0, "runs": 5, "targets_mm": [
+        0.0, 47.2, 103.9, 151.3, 196.8, 253.5, 298.1, 346.9, 404.2, 447.6, 502.3, 549.0, 601.7, 646.2, 698.8,
+        752.4, 797.1, 853.6, 898.9, 951.2, 1000.0]},
+    "conditions": {"air_cycle_c": 0.3, "cycle_period_min": 7.0},
+    "motion": {"pitch_amplitude_urad": 6.0, "pitch_wavelength_mm": 700.0, "yaw_amplitude_urad": 3.0,
+               "yaw_wavelength_mm": 260.0},
+}
+XS = [float(x) for x in range(0, 2001, 50)]
+REFERENCE = {"type": "profile_table", "positions_mm": XS,
+             "height_um": [12 * math.sin(x / 130.0) + 6 * math.cos(x / 47.0) for x in XS]}
+BLOCK = {"length_mm": 100.0, "stations": 16, "return_pass": True}
+# without a reference: the demo's wavy guideway; with one: a straightedge that is exactly the reference
+STRAIGHTNESS = {"kind": "straightness", "block": BLOCK, "surface": {"waves": [[3.0, 640.0, 0.3]]}}
+STRAIGHTEDGE = {"kind": "straightness", "block": BLOCK, "surface": {"waves": []}, "effect": [REFERENCE]}
+
+
+def clopper_pearson(k: int, n: int) -> tuple[float, float]:
+    lo = 0.0 if k == 0 else float(stats.beta.ppf(0.025, k, n - k + 1))
+    hi = 1.0 if k == n else float(stats.beta.ppf(0.975, k + 1, n - k))
+    return lo, hi
+
+
+def count(label: str, scenario: dict, model: dict | None, seeds: int, tmp: Path) -> None:
+    sc = scenario_from_dict(scenario, label)
+    m = model_from_dict(model, "model") if model else None
+    alarms, examples = 0, []
+    for seed in range(seeds):
+        out = tmp / f"{label.replace(' ', '_')}_{seed}"
+        simulate_run(sc, out, seed=10_000 + seed)
+        d = diagnose_run(out, m)
+        if d.named or d.ambiguous:
+            alarms += 1
+            examples.append((seed, d.named, d.ambiguous))
+    lo, hi = clopper_pearson(alarms, seeds)
+    print(f"{label}: {alarms} false alarm(s) in {seeds} null runs, rate {alarms / seeds:.4f} "
+          f"(95 % interval {lo:.4f} … {hi:.4f})" + (f"; e.g. {examples[:3]}" if examples else ""))
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=200)
+    ap.add_argument("--only", choices=("positioning", "straightness", "reference"), default=None)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        if args.only in (None, "positioning"):
+            count("positioning", POSITIONING, None, args.seeds, Path(tmp))
+        if args.only in (None, "straightness"):
+            count("straightness without reference", STRAIGHTNESS, None, args.seeds, Path(tmp))
+        if args.only in (None, "reference"):
+            count("straightness with reference", STRAIGHTEDGE, {"kind": "straightness", "effect": [REFERENCE]},
+                  args.seeds, Path(tmp))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

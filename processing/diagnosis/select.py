@@ -1,0 +1,467 @@
+"""The diagnosis loop: evaluate a channel under the model, find where the residual stands out,
+test every candidate effect the model lacks, name the best one when the evidence is
+significant, add it, and repeat until nothing significant is left (docs/diagnosis.md).
+
+Selection rule, per step, over the K candidates that can be tested on the channel — a
+candidate is *significant* when all of:
+
+1. the F-test of its added parameters has p < α / (C·K) (Bonferroni over the K candidates of
+   the channel and the C channels of the run; for a periodic effect with a searched wavelength p
+   is first corrected for the M independent wavelengths scanned, 1 − (1 − p)^M), α = 0.001;
+2. it lowers the Schwarz criterion by at least 10 (BIC; "very strong" evidence, Kass & Raftery
+   1995);
+3. it lowers the grouped cross-validation RMSE (folds = whole approach series, or pass and
+   station block; skipped where no fold can be held out).
+
+The best significant candidate (lowest BIC; a physical effect before a free table, which is
+tried only when no physical effect is significant) is added and the loop repeats.  A backward
+pass then drops an added effect that is not significant in the final model, or swaps it for a
+candidate that explains more in its place.  Ambiguity is judged in the final model: a
+candidate that, in place of one of its free effects, is significant, comes within 10 of its BIC
+and adds nothing significant once the effect is in, explains the same residual — both are
+reported as ambiguous and the step is not named (a candidate strictly more general than the
+effect, a table around a linear scale, is not a rival; a linear scale inside a free table of
+the model is).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from ..effects import Effect
+from . import basis
+from .fit import Fit, FoldFits, bic, cv_rmse, fit_model, fold_fits, free_wavelength, wavelength_grid
+from .observations import Observations
+
+
+@dataclass(frozen=True)
+class Rule:
+    """Thresholds of the selection rule."""
+
+    alpha: float = 1e-3
+    channels: int = 1  # channels diagnosed in the run: each gets alpha / channels
+    bic_margin: float = 10.0
+    max_steps: int = 8
+    region_alpha: float = 0.05
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"alpha_per_step": self.alpha, "channels": self.channels,
+                "bonferroni": "alpha / (channels x candidates of the channel)",
+                "bic_decrease_min": self.bic_margin, "cv": "grouped cross-validation RMSE must decrease",
+                "ambiguity": f"another significant candidate within {self.bic_margin:g} of the best BIC that "
+                             "adds nothing significant after it", "max_steps": self.max_steps}
+
+
+# -- noise --------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Noise:
+    sigma_um: float
+    dof: int
+    source: str
+
+
+def noise_estimate(obs: Observations, fit: Fit) -> Noise:
+    """Pure error: the scatter of the residual within replicate groups, with the degrees of freedom
+    the model's within-group columns use up; without replicates the residual standard error."""
+    g = obs.replicate
+    r = fit.residual
+    counts = np.bincount(g)
+    means = np.bincount(g, weights=r) / np.maximum(counts, 1)
+    rss_pe = float(np.sum((r - means[g]) ** 2))
+    within = 0
+    nuis = obs.nuisance.shape[1]
+    for col in fit.design[:, nuis:].T:
+        cm = np.bincount(g, weights=col) / np.maximum(counts, 1)
+        total = float(np.sum((col - col.mean()) ** 2))
+        if total > 0 and float(np.sum((col - cm[g]) ** 2)) > 1e-9 * total:
+            within += 1
+    dof = int(np.sum(counts[counts > 0] - 1)) - within
+    if dof >= 3:
+        return Noise(math.sqrt(rss_pe / dof), dof, f"pure error of {obs.replicate_basis}")
+    return Noise(fit.sigma_um, fit.n - fit.n_params, "residual standard error (no replicates in this run)")
+
+
+# -- where the residual stands out ------------------------------------------------------------------------------
+def _z_critical(groups: int, alpha: float) -> float:
+    return float(stats.norm.isf(alpha / (2 * max(groups, 1))))
+
+
+def disagreement(obs: Observations, residual: np.ndarray, sigma: float, alpha: float = 0.05) -> dict[str, Any]:
+    """Mean residual by position, run / pass, direction and time; the groups whose mean stands out
+    beyond the noise (|z| above the two-sided Bonferroni limit for the family at ``alpha``)."""
+    v = obs.values
+    groupings: dict[str, tuple[np.ndarray, list[str]]] = {}
+    if obs.kind == "positioning":
+        arrow = {1.0: "up", -1.0: "down"}
+        keys = list(zip(v["target_index"], v["position_mm"], v["direction"], strict=True))
+        groupings["position"] = _labelled(keys, lambda k: f"target {int(k[0])} ({k[1]:g} mm) {arrow[k[2]]}")
+        groupings["run"] = _labelled(list(zip(v["run"], v["direction"], strict=True)),
+                                     lambda k: f"run {int(k[0])} {arrow[k[1]]}")
+        groupings["direction"] = _labelled(list(v["direction"]), lambda k: arrow[k])
+    else:
+        groupings["position"] = _labelled(list(v["station"]), lambda k: f"station {int(k)}")
+        groupings["run"] = _labelled(list(v["pass"]), lambda k: "return pass" if k else "forward pass")
+    if obs.has("time_min"):
+        order = np.argsort(v["time_min"], kind="stable")
+        bins = np.empty(obs.n, dtype=int)
+        bins[order] = np.arange(obs.n) * 8 // max(obs.n, 1)
+        t = v["time_min"]
+        scale, unit = (1.0, "min") if t.max(initial=0) >= 2 else (60.0, "s")
+        groupings["time"] = (bins, [f"{t[bins == b].min() * scale:.1f}-{t[bins == b].max() * scale:.1f} {unit}"
+                                    for b in range(int(bins.max(initial=-1)) + 1)])
+    out: dict[str, Any] = {"noise_um": sigma, "channel": obs.channel}
+    for name, (ids, labels) in groupings.items():
+        counts = np.bincount(ids)
+        means = np.bincount(ids, weights=residual) / np.maximum(counts, 1)
+        z = means / (sigma / np.sqrt(np.maximum(counts, 1))) if sigma > 0 else np.zeros_like(means)
+        zc = _z_critical(len(labels), alpha)
+        flagged = [{"group": labels[i], "n": int(counts[i]), "mean_um": float(means[i]), "z": float(z[i])}
+                   for i in np.argsort(-np.abs(z)) if abs(z[i]) > zc]
+        out[name] = {"z_limit": zc, "groups": len(labels), "max_abs_z": float(np.max(np.abs(z))) if z.size else 0.0,
+                     "stand_out": flagged}
+    return out
+
+
+def _labelled(keys: list[Any], label: Any) -> tuple[np.ndarray, list[str]]:
+    uniq: dict[Any, int] = {}
+    ids = np.array([uniq.setdefault(k, len(uniq)) for k in keys], dtype=int)
+    return ids, [label(k) for k in uniq]
+
+
+# -- candidates -------------------------------------------------------------------------------------------------
+MAX_PERIODIC = 2  # a screw lead and one more period; a longer Fourier series is a table, not a diagnosis
+POSITIONING_CANDIDATES = ("linear_scale", "quadratic", "backlash", "periodic", "thermal_drift", "thermal_growth",
+                          "abbe", "dead_path", "error_table")
+NEEDS_TEXT = {"time_min": "no time_s recorded for every point", "index_change": "no air values recorded",
+              "pitch_urad": "no pitch channel recorded", "yaw_urad": "no yaw channel recorded",
+              "sensor_um": "no sensor channel", "dpitch_urad": "no pitch channel recorded"}
+
+
+def candidate_effects(obs: Observations, model: tuple[Effect, ...]) -> tuple[list[Effect], dict[str, str]]:
+    """The effects the diagnosis may add to ``model`` on this channel, and why others cannot be tested."""
+    skipped: dict[str, str] = {}
+    free_labels = {e.label for e in model if e.free and e.type != "periodic"}
+    wanted: list[Effect] = []
+    if obs.channel == "deviation":
+        for t in POSITIONING_CANDIDATES:
+            if t == "abbe":
+                wanted += [Effect("abbe", {"offset_mm": 0.0, "channel": ch}, frozenset({"offset_mm"}))
+                           for ch in ("pitch", "yaw")]
+            elif t == "periodic":
+                wanted.append(Effect("periodic", {"amplitude_um": 0.0, "wavelength_mm": None, "phase_rad": 0.0},
+                                     frozenset({"amplitude_um", "wavelength_mm", "phase_rad"})))
+            elif t == "error_table":
+                nodes = tuple(float(p) for p in np.unique(obs.values["position_mm"]))
+                if len(nodes) >= 3:
+                    wanted.append(Effect(t, {"positions_mm": nodes, "error_um": tuple(0.0 for _ in nodes)},
+                                         frozenset({"error_um"})))
+            else:
+                wanted.append(_linear(t))
+    elif obs.channel == "height":
+        wanted.append(_linear("sensor_drift"))
+        if obs.nuisance_names[0].startswith("height_station"):
+            why = "not visible without a reference profile: it is the same on the forward and the return pass"
+            skipped.update({"sensor_gain": why, "lever_arm": why})
+        else:
+            wanted += [_linear("sensor_gain"), _linear("lever_arm")]
+            st = obs.values["station"]
+            nodes = tuple(float(obs.values["x_mm"][st == k].mean()) for k in np.unique(st))
+            if len(nodes) >= 3 and all(b > a for a, b in zip(nodes, nodes[1:], strict=False)):
+                wanted.append(Effect("profile_table", {"positions_mm": nodes, "height_um": tuple(0.0 for _ in nodes)},
+                                     frozenset({"height_um"})))
+    elif obs.channel == "lin":
+        wanted.append(_linear("block_length"))
+    out = []
+    for e in wanted:
+        if e.label in free_labels:
+            continue
+        if e.type == "periodic" and sum(m.type == "periodic" for m in model) >= MAX_PERIODIC:
+            skipped["periodic"] = (f"the model has {MAX_PERIODIC} periodic effects; more structure along the "
+                                   "travel is left to a free error table")
+            continue
+        missing = [k for k in basis.needs(e.type, e.variant) if not obs.has(k)]
+        if missing:
+            skipped[e.label] = NEEDS_TEXT.get(missing[0], f"{missing[0]} not recorded")
+            continue
+        out.append(e)
+    return out, skipped
+
+
+def _linear(t: str) -> Effect:
+    return Effect(t, {basis.LINEAR[t][0]: 0.0}, frozenset({basis.LINEAR[t][0]}))
+
+
+@dataclass(frozen=True)
+class CandidateTest:
+    """One candidate tested against the current model."""
+
+    effect: Effect
+    fit: Fit | None
+    added: int
+    delta_bic: float
+    f_stat: float
+    p_value: float
+    p_threshold: float
+    cv_before_um: float | None
+    cv_after_um: float | None
+    significant: bool
+    look_elsewhere: float = 1.0
+
+    @property
+    def label(self) -> str:
+        return self.effect.label
+
+    def evidence(self) -> dict[str, Any]:
+        return {"delta_bic": self.delta_bic, "f": self.f_stat, "p_value": self.p_value,
+                "p_threshold": self.p_threshold, "parameters_added": self.added,
+                "wavelengths_scanned": self.look_elsewhere if self.look_elsewhere != 1.0 else None,
+                "cv_rmse_before_um": self.cv_before_um, "cv_rmse_after_um": self.cv_after_um,
+                "significant": self.significant}
+
+
+def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int, rule: Rule,
+                   current_folds: FoldFits | None = None) -> CandidateTest | None:
+    """Fit ``current`` + ``cand`` (the model's wavelengths kept); None when the candidate adds no parameter
+    (it lies in the model's span).  ``current_folds``: the current model's cross-validation fits."""
+    try:
+        fit = fit_model(obs, (*current.effects, cand), refine={len(current.effects)}, standard_errors=False)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    added = fit.n_params - current.n_params - (1 if free_wavelength(cand) else 0)
+    added_total = added + (1 if free_wavelength(cand) else 0)
+    dof = obs.n - fit.n_params
+    if added <= 0 or dof <= 0:
+        return None
+    n = obs.n
+    dbic = bic(fit.rss, n, fit.n_params) - bic(current.rss, n, current.n_params)
+    f_stat = ((current.rss - fit.rss) / added_total) / (fit.rss / dof) if fit.rss > 0 else math.inf
+    p = float(stats.f.sf(f_stat, added_total, dof))
+    m_eff = 1.0
+    if free_wavelength(cand):
+        m_eff = wavelength_grid(obs.values["position_mm"])[1]
+        p = float(-np.expm1(m_eff * np.log1p(-min(p, 1 - 1e-16))))
+    threshold = rule.alpha / (max(k_tested, 1) * max(rule.channels, 1))
+    before = current_folds or fold_fits(current.design, current.target, obs.folds)
+    cv_before, cv_after = cv_rmse([before, fold_fits(fit.design, fit.target, obs.folds)])
+    significant = (p < threshold and dbic <= -rule.bic_margin
+                   and (cv_before is None or cv_after is None or cv_after < cv_before))
+    return CandidateTest(fit.effects[-1], fit, added_total, dbic, f_stat, p, threshold, cv_before, cv_after,
+                         significant, m_eff)
+
+
+# -- the loop ---------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Step:
+    """One effect added to the model, with the evidence and the fit after it."""
+
+    test: CandidateTest
+    fit: Fit
+    noise: Noise
+    tested: tuple[CandidateTest, ...]
+    ambiguous_with: tuple[str, ...] = ()
+
+    @property
+    def effect(self) -> Effect:
+        """The effect as fitted in the model after this step."""
+        return self.fit.effects[-1] if self.fit.effects else self.test.effect
+
+
+@dataclass(frozen=True)
+class ChannelDiagnosis:
+    obs: Observations
+    model: tuple[Effect, ...]
+    baseline: Fit
+    baseline_noise: Noise
+    steps: tuple[Step, ...]
+    final: Fit
+    noise: Noise
+    disagreement: dict[str, Any]
+    ambiguous: tuple[tuple[str, ...], ...]
+    not_testable: dict[str, str]
+    last_round: tuple[CandidateTest, ...]
+    rule: Rule = field(default_factory=Rule)
+
+    @property
+    def named(self) -> list[str]:
+        return [s.test.effect.type for s in self.steps if not s.ambiguous_with]
+
+
+def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect], rule: Rule | None = None
+                     ) -> ChannelDiagnosis:
+    """Run the diagnosis on one channel (``model``: the effects that act on it).
+
+    Forward selection adds the best significant candidate until none is left; a backward pass
+    then drops an added effect that is no longer significant in the final model, or swaps it for
+    a candidate that explains more in its place (an early step decided while larger effects were
+    still unmodelled); the steps are then told again in order of evidence, and every added effect
+    is checked for a candidate it cannot be told apart from, in the final model.
+    """
+    rule = rule or Rule()
+    model = tuple(model)
+    baseline = fit_model(obs, model)
+    base_noise = noise_estimate(obs, baseline)
+    regions = disagreement(obs, baseline.residual, base_noise.sigma_um, rule.region_alpha)
+    not_testable: dict[str, str] = {}
+    steps, last = _forward(obs, baseline, rule, not_testable)
+    final = steps[-1].fit if steps else baseline
+    refined = _backward(obs, final, len(model), rule)
+    if refined is not None:
+        chosen = {e.label for e in refined.effects[len(model):]}
+        steps, last = _forward(obs, baseline, rule, not_testable, allowed=chosen)
+        final = steps[-1].fit if steps else baseline
+    ambiguous: list[tuple[str, ...]] = []
+    alike_of: dict[int, tuple[str, ...]] = {}
+    for j, effect in enumerate(final.effects):
+        if effect.free:
+            alike = _indistinguishable(obs, final, j, rule)
+            if alike:
+                alike_of[j] = tuple(a.label for a in alike)
+                group = tuple(sorted({effect.type, *(a.type for a in alike)}))
+                if group not in ambiguous:
+                    ambiguous.append(group)
+    told = [Step(s.test, s.fit, s.noise, s.tested, alike_of.get(len(model) + i, ()))
+            for i, s in enumerate(steps)]
+    return ChannelDiagnosis(obs, model, baseline, base_noise, tuple(told), final, noise_estimate(obs, final),
+                            regions, tuple(ambiguous), not_testable, last, rule)
+
+
+CATCH_ALL = ("error_table", "profile_table")
+"""Free tables: they fit any position-dependent error, so they are tried only when no physical effect
+with few parameters is significant (and a candidate table around a named effect is not its rival)."""
+
+
+def _round(obs: Observations, current: Fit, rule: Rule, not_testable: dict[str, str],
+           catch_all: bool | str = "last") -> list[CandidateTest]:
+    """Every candidate tested against ``current``, best (lowest BIC) first; the free tables too when
+    ``catch_all`` is True, or with ``"last"`` when no other candidate is significant."""
+    cands, skipped = candidate_effects(obs, current.effects)
+    not_testable.update(skipped)
+    k = len(cands)  # the Bonferroni family counts every candidate, tested or not
+    folds = fold_fits(current.design, current.target, obs.folds)
+
+    def run(group: list[Effect]) -> list[CandidateTest]:
+        out = [t for t in (test_candidate(obs, current, c, k, rule, folds) for c in group) if t is not None]
+        for c in group:
+            if not any(t.effect.label == c.label for t in out):
+                not_testable.setdefault(c.label, "no variation beyond what the model already fits on this run")
+        return out
+
+    tests = run([c for c in cands if c.type not in CATCH_ALL])
+    if catch_all is True or (catch_all == "last" and not any(t.significant for t in tests)):
+        tests += run([c for c in cands if c.type in CATCH_ALL])
+    return sorted(tests, key=lambda t: t.delta_bic)
+
+
+def _pick(tests: list[CandidateTest]) -> CandidateTest | None:
+    """The best significant candidate, a physical effect before a free table."""
+    winners = [t for t in tests if t.significant]
+    return next((t for t in winners if t.effect.type not in CATCH_ALL), winners[0] if winners else None)
+
+
+def _forward(obs: Observations, start: Fit, rule: Rule, not_testable: dict[str, str],
+             allowed: set[str] | None = None) -> tuple[list[Step], tuple[CandidateTest, ...]]:
+    """Add the best significant candidate until none is left (only those in ``allowed``, best first, when
+    given: the steps told again after the backward pass)."""
+    steps: list[Step] = []
+    current = start
+    tested: list[CandidateTest] = []
+    for _ in range(rule.max_steps if allowed is None else len(allowed)):
+        if allowed is None:
+            tested = _round(obs, current, rule, not_testable)
+            best = _pick(tested)
+        else:
+            done = {e.label for e in current.effects[len(start.effects):]}
+            left = allowed - done
+            tested = _round(obs, current, rule, not_testable, catch_all=any(lb in CATCH_ALL for lb in left))
+            pool = [t for t in tested if t.effect.label in left]
+            best = next((t for t in pool if t.effect.type not in CATCH_ALL), pool[0] if pool else None)
+        if best is None:
+            break
+        assert best.fit is not None
+        current = fit_model(obs, best.fit.effects)  # all wavelengths refined, standard errors
+        steps.append(Step(best, current, noise_estimate(obs, current), tuple(tested)))
+    if allowed is not None:
+        tested = _round(obs, current, rule, not_testable)
+    return steps, tuple(tested)
+
+
+def _without(obs: Observations, fit: Fit, j: int) -> Fit:
+    return fit_model(obs, fit.effects[:j] + fit.effects[j + 1:], standard_errors=False)
+
+
+def _backward(obs: Observations, final: Fit, n_model: int, rule: Rule) -> Fit | None:
+    """Drop added effects that are not significant in the final model, swap one for a better candidate;
+    the refined fit, or None when nothing changed."""
+    current, changed = final, False
+    for _ in range(2 * rule.max_steps):
+        for j in range(n_model, len(current.effects)):
+            reduced = _without(obs, current, j)
+            table = current.effects[j].type in CATCH_ALL
+            tests = _round(obs, reduced, rule, {}, catch_all=table)
+            own = next((t for t in tests if t.effect.label == current.effects[j].label), None)
+            if own is None or not own.significant:
+                current, changed = reduced, True
+                break
+            best = _pick(tests) if not table else next(t for t in tests if t.significant)
+            assert best is not None
+            if best.effect.label != own.effect.label and best.delta_bic < own.delta_bic:
+                assert best.fit is not None
+                current, changed = best.fit, True
+                break
+        else:
+            return current if changed else None
+    return current
+
+
+def _indistinguishable(obs: Observations, final: Fit, j: int, rule: Rule) -> list[Effect]:
+    """Candidates that, in place of the ``j``-th effect of the final model, are significant and come within
+    the BIC margin of it, and add nothing significant once it is in the model.  A candidate that strictly
+    contains the effect (a free table around a linear scale) is not an alternative: parsimony prefers the
+    effect; the reverse (a linear scale inside a free table of the model) is ambiguous."""
+    reduced = _without(obs, final, j)
+    tests = _round(obs, reduced, rule, {}, catch_all=final.effects[j].type in CATCH_ALL)
+    own = next((t for t in tests if t.effect.label == final.effects[j].label), None)
+    if own is None:
+        return []
+    k = len(candidate_effects(obs, reduced.effects)[0])
+    mine = basis.columns(final.effects[j], obs).matrix
+    out = []
+    for other in tests:
+        if other is own or not other.significant or other.delta_bic - own.delta_bic >= rule.bic_margin:
+            continue
+        theirs = basis.columns(other.effect, obs).matrix  # a strictly more general candidate: parsimony
+        if _inside(mine, theirs, obs.nuisance) and not _inside(theirs, mine, obs.nuisance):
+            continue
+        fresh = Effect(other.effect.type, _zeroed(other.effect), other.effect.free)
+        again = test_candidate(obs, final, fresh, k, rule)
+        if again is None or not again.significant:
+            out.append(other.effect)
+    return out
+
+
+def _zeroed(e: Effect) -> dict[str, Any]:
+    params = dict(e.params)
+    if e.type == "periodic":
+        params["wavelength_mm"] = None
+    return params
+
+
+NESTED_R2 = 0.999
+
+
+def _inside(cols: np.ndarray, span: np.ndarray, nuisance: np.ndarray) -> bool:
+    """Every column of ``cols`` lies in the span of ``span`` and the nuisance (R² ≥ 0.999 of what the
+    nuisance leaves of it)."""
+    def rest(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        bs = b / np.maximum(np.linalg.norm(b, axis=0), 1e-300)
+        return a - bs @ np.linalg.lstsq(bs, a, rcond=None)[0]
+
+    base = np.sum(rest(cols, nuisance) ** 2, axis=0)
+    left = np.sum(rest(cols, np.column_stack([nuisance, span])) ** 2, axis=0)
+    ok = base > 0
+    return bool(np.all(left[ok] <= (1 - NESTED_R2) * base[ok]))

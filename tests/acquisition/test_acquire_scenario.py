@@ -1,0 +1,115 @@
+"""A scenario's effects behind the real transports: ``acquire --simulate`` with ``[simulation]
+scenario = "FILE"`` (or ``--scenario FILE``) runs the simulated machine axis or world with the
+scenario's effects, over Modbus TCP and a pty exactly like a measured run, and ``diagnose``
+finds what the scenario hid."""
+
+from __future__ import annotations
+
+import io
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from acquisition.acquire import SimOptions, run_positioning, run_straightness
+from acquisition.diagnose import diagnose_run
+from acquisition.positioning_setup import positioning_setup_from_dict
+from acquisition.runstore import load_run
+from acquisition.setup import straightness_setup_from_dict
+from tui.cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+
+POSITIONING_SCENARIO = """
+kind = "positioning"
+[noise]
+reading_um = 0.15
+[[effect]]
+type = "linear_scale"
+ppm = 6.0
+[[effect]]
+type = "backlash"
+reversal_um = -3.0
+"""
+
+POSITIONING_SETUP = """
+kind = "positioning"
+[axis]
+targets_mm = [0.0, 95.3, 204.1, 298.7, 402.2, 497.9, 600.0]
+runs = 3
+feed_mm_min = 60000.0
+[trigger]
+dwell_s = 0.0
+[simulation]
+scenario = "scenario.toml"
+"""
+
+
+def test_positioning_scenario_behind_modbus_is_found_by_diagnose(tmp_path: Path) -> None:
+    (tmp_path / "scenario.toml").write_text(POSITIONING_SCENARIO)
+    (tmp_path / "setup.toml").write_text(POSITIONING_SETUP)
+    setup_path = tmp_path / "setup.toml"
+    source = tomllib.loads(setup_path.read_text())
+    setup = positioning_setup_from_dict(source, str(setup_path))
+    assert Path(setup.scenario) == (tmp_path / "scenario.toml").resolve()  # relative to the set-up file
+    res = run_positioning(setup, tmp_path / "run", simulate=SimOptions(seed=4), auto=True, setup_source=source,
+                          stream=io.StringIO())
+    assert res.outcome.exit_status == "success", res.outcome.reason
+    run = load_run(tmp_path / "run")
+    assert run.meta["simulation"]["scenario"] == setup.scenario
+    d = diagnose_run(tmp_path / "run")
+    assert sorted(d.named) == ["backlash", "linear_scale"]
+    final = {e.type: (e, se) for e, se in zip(d.primary.final.effects, d.primary.final.se, strict=True)}
+    assert abs(final["linear_scale"][0].params["ppm"] - 6.0) <= 4 * final["linear_scale"][1]["ppm"]
+    assert abs(final["backlash"][0].params["reversal_um"] + 3.0) <= 4 * final["backlash"][1]["reversal_um"]
+    assert d.primary.final.rms_um <= 1.2 * 0.15
+
+
+def test_straightness_scenario_behind_the_pty_sensor(tmp_path: Path) -> None:
+    """A block 15 um longer than recorded: the interferometer's lin channel ramps by it per station."""
+    scenario = tmp_path / "block.toml"
+    scenario.write_text('kind = "straightness"\n[block]\nlength_mm = 100.0\nstations = 5\n'
+                        '[noise]\nplacement_um = 2.0\n[[effect]]\ntype = "block_length"\num_per_block = 15.0\n')
+    text = (ROOT / "docs" / "setup-straightness.toml").read_text()
+    text = text.replace("stations = 20 ", "stations = 8 ").replace("enabled = true", "enabled = false")
+    text = text.replace("samples_per_reading = 5", "samples_per_reading = 2")
+    text = text.replace("return_pass = false", "return_pass = true")
+    setup = straightness_setup_from_dict(tomllib.loads(text), "setup")
+    res = run_straightness(setup, tmp_path / "run", simulate=SimOptions(seed=1, scenario=str(scenario)), auto=True,
+                           stream=io.StringIO())
+    assert res.outcome.exit_status == "success", res.outcome.reason
+    pts = load_run(tmp_path / "run").points
+    assert len(pts) == 16
+    d = diagnose_run(tmp_path / "run")
+    assert d.named == ["block_length"]
+    lin = next(c for c in d.channels if c.obs.channel == "lin")
+    (step,) = lin.steps
+    assert abs(step.effect.params["um_per_block"] - 15.0) <= 4 * step.fit.se[-1]["um_per_block"]
+    assert np.isfinite(pts["sensor_mm"]).all()
+
+
+def test_scenario_of_the_wrong_kind_is_a_one_line_error(tmp_path: Path, capsys) -> None:
+    (tmp_path / "scenario.toml").write_text(POSITIONING_SCENARIO)
+    text = (ROOT / "docs" / "setup-straightness.toml").read_text().replace("enabled = true", "enabled = false")
+    (tmp_path / "setup.toml").write_text(text)
+    code = main(["acquire", "straightness", "--setup", str(tmp_path / "setup.toml"), "--out", str(tmp_path / "run"),
+                 "--simulate", "--auto", "--scenario", str(tmp_path / "scenario.toml")])
+    err = capsys.readouterr().err
+    assert code == 2 and "is a positioning scenario; this is a straightness run" in err
+    assert not (tmp_path / "run").exists()
+    code = main(["acquire", "straightness", "--setup", str(tmp_path / "setup.toml"), "--out", str(tmp_path / "run"),
+                 "--scenario", str(tmp_path / "scenario.toml")])
+    assert code == 2 and "--scenario needs --simulate" in capsys.readouterr().err
+
+
+def test_the_simulation_table_of_a_straightness_setup_is_checked() -> None:
+    import pytest
+
+    from acquisition.errors import SetupError
+
+    text = (ROOT / "docs" / "setup-straightness.toml").read_text()
+    data = tomllib.loads(text)
+    with pytest.raises(SetupError, match="unknown key 'scenaro' in \\[simulation\\]"):
+        straightness_setup_from_dict({**data, "simulation": {"scenaro": "x.toml"}}, "setup")
+    assert straightness_setup_from_dict({**data, "simulation": {"scenario": "/abs/x.toml"}}, "setup").scenario \
+        == "/abs/x.toml"

@@ -1,0 +1,144 @@
+"""`guideway simulate` and `guideway diagnose` from the command line: a simulated run passes
+process, report, export and diagnose like a measured one; the diagnosis finds what the scenario
+hid, writes its report and a model file that, reused, leaves nothing to find; bad input gets one
+line and exit code 2."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from acquisition.runstore import load_run
+from tui.cli import main
+
+SCENARIO = """
+kind = "positioning"
+seed = 7
+[axis]
+targets_mm = [0.0, 52.1, 98.7, 151.9, 203.4, 248.2, 302.6, 351.0, 398.4, 452.3, 500.0, 547.7, 603.1, 648.9,
+              701.5, 752.0, 797.3, 850.8, 902.6, 948.1, 1000.0]
+runs = 4
+[trigger]
+dwell_s = 2.0
+[noise]
+reading_um = 0.2
+[[effect]]
+type = "thermal_growth"
+ppm_per_min = 0.06
+[[effect]]
+type = "periodic"
+amplitude_um = 0.9
+wavelength_mm = 310.0
+phase_rad = -0.4
+"""
+
+STRAIGHTNESS = """
+kind = "straightness"
+[block]
+length_mm = 100.0
+stations = 12
+return_pass = true
+[[effect]]
+type = "sensor_drift"
+um_per_min = 0.03
+"""
+
+
+def run_cli(capsys, *args: str) -> tuple[int, str, str]:
+    code = main(list(args))
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_simulated_positioning_run_goes_through_every_command(tmp_path: Path, capsys) -> None:
+    scenario = tmp_path / "scenario.toml"
+    scenario.write_text(SCENARIO)
+    run = tmp_path / "run"
+    code, out, _ = run_cli(capsys, "simulate", str(scenario), "--out", str(run))
+    assert code == 0 and "168 points" in out
+    meta = load_run(run).meta
+    assert meta["status"] == "complete" and meta["simulation"]["seed"] == 7
+    code, out, _ = run_cli(capsys, "process", str(run), "--json")
+    assert code == 0 and json.loads(out)["kind"] == "positioning"
+    assert run_cli(capsys, "report", str(run))[0] == 0
+    assert run_cli(capsys, "export", str(run), "--format", "linuxcnc", "--out", str(tmp_path / "comp.tbl"))[0] == 0
+
+    report, model = tmp_path / "diagnosis.html", tmp_path / "model.toml"
+    code, out, err = run_cli(capsys, "diagnose", str(run), "--json", "--report", str(report), "--out", str(model))
+    assert code == 0, err
+    d = json.loads(out)
+    assert sorted(d["named"]) == ["periodic", "thermal_growth"] and d["ambiguous"] == []
+    assert d["final"]["rms_um"] <= 1.2 * 0.2 < d["baseline"]["rms_um"]
+    assert [s["rms_um"] for s in d["steps"]] == sorted((s["rms_um"] for s in d["steps"]), reverse=True)
+    final = {e["type"]: e for e in d["final"]["model"]}
+    for kind, name, value in (("thermal_growth", "ppm_per_min", 0.06), ("periodic", "amplitude_um", 0.9),
+                              ("periodic", "wavelength_mm", 310.0)):
+        assert abs(final[kind][name] - value) <= 4 * final[kind]["se"][name], (kind, name, final[kind])
+    html = report.read_text()
+    assert html.count("<img") >= 2 + len(d["steps"]) and "Step 2" in html and "Final model" in html
+
+    # the model written back is a model file: reused, nothing is missing any more
+    code, out, _ = run_cli(capsys, "diagnose", str(run), "--model", str(model), "--json")
+    again = json.loads(out)
+    assert code == 0 and again["named"] == [] and again["steps"] == []
+    assert again["baseline"]["rms_um"] == pytest.approx(d["final"]["rms_um"], rel=1e-3)
+
+
+def test_simulate_is_reproducible_by_seed(tmp_path: Path, capsys) -> None:
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(STRAIGHTNESS)
+    for name, seed in (("a", "3"), ("b", "3"), ("c", "4")):
+        assert run_cli(capsys, "simulate", str(scenario), "--out", str(tmp_path / name), "--seed", seed)[0] == 0
+    text = {n: (tmp_path / n / "points.csv").read_text() for n in "abc"}
+    assert text["a"] == text["b"] != text["c"]
+    assert run_cli(capsys, "process", str(tmp_path / "a"), "--mc-trials", "0")[0] == 0
+    code, out, _ = run_cli(capsys, "diagnose", str(tmp_path / "a"))
+    assert code == 0 and "named: sensor_drift" in out
+
+
+@pytest.mark.parametrize(("text", "fragment"), [
+    ('kind = "positioning"\n[[effect]]\ntype = "sag"\n', "type 'sag' is not a positioning effect"),
+    ('kind = "positioning"\n[[effect]]\ntype = "linear_scale"\nppm = 2.0\nfree = true\n', "free is for model files"),
+    ('kind = "positioning"\n[axis]\nend_mm = 500.0\n[[effect]]\ntype = "periodic"\namplitude_um = 1.0\n',
+     "wavelength_mm is missing"),
+    ('kind = "straightness"\n[[effect]]\ntype = "sensor_gain"\nppm = 5.0\n', "no [block] table"),
+    ('kind = "positioning"\n[noise]\nreading_nm = 3\n[axis]\nend_mm = 500.0\n', "unknown key 'reading_nm'"),
+])
+def test_bad_scenarios_are_one_line_errors(tmp_path: Path, capsys, text: str, fragment: str) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    code, _, err = run_cli(capsys, "simulate", str(path), "--out", str(tmp_path / "run"))
+    assert code == 2 and err.count("guideway: error:") == 1 and fragment in err, err
+    assert not (tmp_path / "run").exists()
+
+
+def test_bad_diagnose_input_is_a_one_line_error(tmp_path: Path, capsys) -> None:
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(STRAIGHTNESS)
+    run_cli(capsys, "simulate", str(scenario), "--out", str(tmp_path / "run"))
+    model = tmp_path / "m.toml"
+    model.write_text('kind = "positioning"\n[[effect]]\ntype = "backlash"\nfree = true\n')
+    code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(model))
+    assert code == 2 and "is a positioning model" in err and "straightness run" in err
+    model.write_text('kind = "straightness"\n[[effect]]\ntype = "lever_arm"\nerror_mm = "x"\n')
+    code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(model))
+    assert code == 2 and "error_mm must be a number" in err
+    code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "nothing"))
+    assert code == 2 and "no such run directory" in err
+    code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(tmp_path / "missing.toml"))
+    assert code == 2 and err.startswith("guideway: error:")
+
+
+def test_documented_examples_load() -> None:
+    from acquisition.scenario import load_model, load_scenario
+
+    root = Path(__file__).resolve().parents[1] / "docs"
+    pos = load_scenario(root / "scenario-positioning.toml")
+    assert pos.positioning is not None and len(pos.positioning.targets) == 21
+    assert [e.type for e in pos.effects] == ["backlash", "thermal_growth", "periodic"]
+    st = load_scenario(root / "scenario-straightness.toml")
+    assert st.straightness is not None and st.straightness.return_pass
+    model = load_model(root / "model-positioning.toml")
+    assert [(e.type, sorted(e.free)) for e in model.effects] == [("backlash", ["reversal_um"])]
