@@ -30,7 +30,7 @@ evaluation to vary them per trial).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -125,7 +125,7 @@ def rotate(ex: np.ndarray, ey: np.ndarray, ez: np.ndarray, v: Vec3) -> Vec3:
     return x, y, z
 
 
-DATUM_PITCH_ITERATIONS = 4  # each shrinks the pitch error by ~|first step's angle change| x |P| / L (< 1e-2)
+DATUM_PITCH_ITERATIONS = 3  # each shrinks the pitch error by ~|first step's angle change| x |P| / L (< 1e-2)
 
 
 def estimate_datum_pitch(ch: Channels, setup: Setup, ex0: np.ndarray | float,
@@ -149,15 +149,24 @@ def estimate_datum_pitch(ch: Channels, setup: Setup, ex0: np.ndarray | float,
 
     dx = at(ch.x_mm, i) - at(ch.x_mm, 0) + (at(ch.lin_um, i) - at(ch.lin_um, 0)) * 1e-3
     dy = (at(ch.stry_um, i) - at(ch.stry_um, 0)) * 1e-3
-    a1 = tuple(at(c, i) * 1e-6 for c in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad))
-    a0 = tuple(at(c, 0) * 1e-6 for c in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad))
+    r1 = _xy_rows(*(at(c, i) * 1e-6 for c in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad)))
+    r0 = _xy_rows(*(at(c, 0) * 1e-6 for c in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad)))
+    (m00, m01, m02), (m10, m11, m12) = ((a - b for a, b in zip(ra, rb, strict=True))
+                                        for ra, rb in zip(r1, r0, strict=True))  # dR1 - dR0, rows X and Y
+    wx, wy, wz = rotate(ex0, ey0, 0.0, setup.mirror)  # R0 P = Rz(ez0) w
     ez0: np.ndarray | float = 0.0
     for _ in range(DATUM_PITCH_ITERATIONS):
-        p = rotate(ex0, ey0, ez0, setup.mirror)
-        p1x, p1y, _ = rotate(*a1, p)
-        p0x, p0y, _ = rotate(*a0, p)
-        ez0 = np.arctan2(dy - (p1y - p0y), dx - (p1x - p0x))
+        c, s = np.cos(ez0), np.sin(ez0)
+        px, py = c * wx - s * wy, s * wx + c * wy
+        ez0 = np.arctan2(dy - (m10 * px + m11 * py + m12 * wz), dx - (m00 * px + m01 * py + m02 * wz))
     return ez0
+
+
+def _xy_rows(ex: np.ndarray, ey: np.ndarray, ez: np.ndarray) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
+    """The X and Y rows of R = Rz(ez) Ry(ey) Rx(ex)."""
+    cx, sx, cy, sy, cz, sz = np.cos(ex), np.sin(ex), np.cos(ey), np.sin(ey), np.cos(ez), np.sin(ez)
+    return ((cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx),
+            (sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx))
 
 
 def datum_angles_rad(ch: Channels, setup: Setup) -> tuple[np.ndarray | float, np.ndarray | float,
@@ -244,11 +253,7 @@ def check_method(method: str) -> None:
 
 def decouple(points: pd.DataFrame, geometry: BlockGeometry, method: str = DEFAULT_METHOD) -> pd.DataFrame:
     """Per-point profile (station, x_mm, height_um) by ``method``; the first row is the datum."""
-    check_method(method)
-    if len(points) == 0:
-        raise ValueError("no points to process")
-    x, h = DECOUPLERS[method](Channels.from_points(points), Setup.from_geometry(geometry))
-    return pd.DataFrame({"station": points["station"].to_numpy(dtype=int), "x_mm": x, "height_um": h})
+    return decouple_run(points, geometry, method).profile
 
 
 @dataclass(frozen=True)
@@ -266,16 +271,45 @@ class DatumAnglesUsed:
         return {"roll": self.roll_urad, "yaw": self.yaw_urad, "pitch": self.pitch_urad, "source": dict(self.source)}
 
 
-def datum_angles_used(points: pd.DataFrame, geometry: BlockGeometry) -> DatumAnglesUsed:
-    """What :func:`exact_arrays` takes for the datum angles of this run."""
-    ch = Channels.from_points(points)
-    angles = datum_angles_rad(ch, Setup.from_geometry(geometry))
+def datum_angles_of(ch: Channels, setup: Setup) -> DatumAnglesUsed:
+    """The datum angles :func:`exact_arrays` takes for these channels (one run, 1-D channels)."""
+    angles = datum_angles_rad(ch, setup)
     source, used = {}, []
-    for axis, given, rad in zip(DATUM_AXES, geometry.datum_angles_urad.as_tuple(), angles, strict=True):
+    for axis, given, rad in zip(DATUM_AXES, setup.datum_urad, angles, strict=True):
         estimated = axis == "pitch" and ch.first_step is not None
         source[axis] = "measured" if given is not None else ("estimated" if estimated else "assumed")
         used.append(float(given) if given is not None else float(np.asarray(rad).reshape(-1)[0]) * 1e6)
     return DatumAnglesUsed(*used, source=source)
+
+
+def datum_angles_used(points: pd.DataFrame, geometry: BlockGeometry) -> DatumAnglesUsed:
+    """What :func:`exact_arrays` takes for the datum angles of this run."""
+    return datum_angles_of(Channels.from_points(points), Setup.from_geometry(geometry))
+
+
+@dataclass(frozen=True)
+class Decoupled:
+    """A decoupled run: the per-point profile (station, x_mm, height_um; the first row is the
+    datum), the channels it came from and, for ``exact``, the datum angles it used."""
+
+    profile: pd.DataFrame
+    channels: Channels
+    datum: DatumAnglesUsed | None
+
+
+def decouple_run(points: pd.DataFrame, geometry: BlockGeometry, method: str = DEFAULT_METHOD) -> Decoupled:
+    """Decouple every point by ``method`` (see :func:`decouple`), keeping what the result reports."""
+    check_method(method)
+    if len(points) == 0:
+        raise ValueError("no points to process")
+    ch, setup = Channels.from_points(points), Setup.from_geometry(geometry)
+    datum = None
+    if method == "exact":
+        datum = datum_angles_of(ch, setup)
+        setup = replace(setup, datum_urad=(datum.roll_urad, datum.yaw_urad, datum.pitch_urad))  # estimated once
+    x, h = DECOUPLERS[method](ch, setup)
+    profile = pd.DataFrame({"station": points["station"].to_numpy(dtype=int), "x_mm": x, "height_um": h})
+    return Decoupled(profile, ch, datum)
 
 
 def decouple_first_order(points: pd.DataFrame, geometry: BlockGeometry) -> pd.DataFrame:

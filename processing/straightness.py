@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .decoupling import DEFAULT_METHOD, METHODS, DatumAnglesUsed, check_method, datum_angles_used, decouple
+from .decoupling import DEFAULT_METHOD, METHODS, DatumAnglesUsed, check_method, decouple_run
 from .geometry import BlockGeometry
 from .passes import ReturnPassSummary, check_order, return_pass_summary, station_groups
 from .reference_lines import LineFit, endpoint_line, least_squares_line, minimum_zone_line
@@ -114,7 +114,8 @@ def evaluate_straightness(
     given, the GUM per-station and (``mc_trials`` > 0) Monte Carlo uncertainties."""
     check_method(method)
     check_order(points)
-    per_point = decouple(points, geometry, method)
+    dec = decouple_run(points, geometry, method)
+    per_point = dec.profile
     groups = station_groups(points)
     x = groups.average(per_point["x_mm"].to_numpy())
     h = groups.average(per_point["height_um"].to_numpy())
@@ -130,12 +131,11 @@ def evaluate_straightness(
         mc = (monte_carlo(points, geometry, method, uncertainty, groups, x, slope, trials=mc_trials,
                           seed=mc_seed, lines=tuple(lines)) if mc_trials > 0 and lines else None)
         unc = Uncertainty(uncertainty, u, mc)
-    exact = method == "exact"
     return StraightnessResult(
         method=method, profile=profile, lines=lines, uncertainty=unc,
         wavelengths=dominant_wavelengths(x, h) if np.all(np.diff(x) > 0) else [],
         return_pass=return_pass_summary(points, per_point),
-        datum=datum_angles_used(points, geometry) if exact else None,
-        datum_pitch_u_urad=(datum_pitch_u_urad(points, geometry, uncertainty)
-                            if exact and uncertainty is not None else None),
+        datum=dec.datum,
+        datum_pitch_u_urad=(datum_pitch_u_urad(dec.channels, geometry, uncertainty)
+                            if method == "exact" and uncertainty is not None else None),
     )

@@ -50,7 +50,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .decoupling import DECOUPLERS, Channels, Setup, first_step_index
+from .decoupling import DECOUPLERS, Channels, Setup
 from .geometry import BlockGeometry
 from .passes import StationGroups
 from .reference_lines import minimum_zone_many
@@ -132,7 +132,7 @@ def profile_slope(x_mm: np.ndarray, h_um: np.ndarray) -> np.ndarray:
     return np.gradient(h_um, x_mm)
 
 
-def datum_pitch_u_urad(points: pd.DataFrame, geometry: BlockGeometry, inputs: UncertaintyInputs) -> float | None:
+def datum_pitch_u_urad(ch: Channels, geometry: BlockGeometry, inputs: UncertaintyInputs) -> float | None:
     """Standard uncertainty (urad) of the datum pitch estimated from the first step (None without one).
 
     The estimate is the direction of O1 - O0 (docs/conventions.md); to first
@@ -140,12 +140,12 @@ def datum_pitch_u_urad(points: pd.DataFrame, geometry: BlockGeometry, inputs: Un
     (two independent captures of each channel; xP and zP known to offset_mm)
     and its X component the step L, so u = u(Y) / L.
     """
-    i = first_step_index(points)
+    i = ch.first_step
     if i is None:
         return None
     xp, _, zp = geometry.mirror_mm
-    step_mm = float(points["x_mm"].iloc[i] - points["x_mm"].iloc[0])
-    dez, dex = (float(points[c].iloc[i] - points[c].iloc[0]) * 1e-3 for c in ("pitch_urad", "roll_urad"))
+    step_mm = float(ch.x_mm[i] - ch.x_mm[0])
+    dez, dex = (float(a[i] - a[0]) * 1e-3 for a in (ch.pitch_urad, ch.roll_urad))
     var_um2 = (2.0 * inputs.straightness_um**2 + 2.0 * (xp**2 + zp**2) * (inputs.angle_urad * 1e-3) ** 2
                + (dez**2 + dex**2) * inputs.offset_mm**2)
     return math.sqrt(var_um2) / abs(step_mm) * 1e3 if step_mm else None

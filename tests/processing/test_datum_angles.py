@@ -210,10 +210,10 @@ def test_datum_pitch_estimate_scatters_as_its_stated_uncertainty() -> None:
     points = pd.DataFrame(rec.rows)
     u = UncertaintyInputs(straightness_um=0.1, angle_urad=2.0, offset_mm=0.0)
     expected = math.sqrt(2 * (0.1**2 + (P[0] ** 2 + P[2] ** 2) * (2.0e-3) ** 2)) / L * 1e3
-    assert datum_pitch_u_urad(points, geometry(rec, DOWN), u) == pytest.approx(expected, rel=1e-12)
+    ch = Channels.from_points(points)
+    assert datum_pitch_u_urad(ch, geometry(rec, DOWN), u) == pytest.approx(expected, rel=1e-12)
     rng = np.random.default_rng(5)
     m = 20_000
-    ch = Channels.from_points(points)
     shape = (m, len(points))
     noisy = Channels(x_mm=ch.x_mm, lin_um=ch.lin_um, stry_um=ch.stry_um + rng.normal(0, 0.1, shape),
                      strz_um=ch.strz_um + rng.normal(0, 0.1, shape),
@@ -245,7 +245,7 @@ def test_result_json_names_the_datum_angles_and_their_sources() -> None:
     assert d["roll"] == 12.5 and d["yaw"] == 0.0
     assert d["source"] == {"roll": "measured", "yaw": "assumed", "pitch": "estimated"}
     assert abs(d["pitch"] - rec.datum_urad["pitch"]) < 0.1
-    assert d["pitch_u_urad"] == datum_pitch_u_urad(points, geometry(rec, DOWN), u)
+    assert d["pitch_u_urad"] == datum_pitch_u_urad(Channels.from_points(points), geometry(rec, DOWN), u)
     given = evaluate_straightness(points, geometry(rec, DOWN, pitch=55.0), mc_trials=0).to_dict()
     assert given["datum_angles_urad"]["pitch"] == 55.0 and "pitch_u_urad" not in given["datum_angles_urad"]
     for method in ("first-order", "patent"):  # they do not use the datum angles
