@@ -196,8 +196,11 @@ def exact_arrays(ch: Channels, setup: Setup) -> tuple[np.ndarray, np.ndarray]:
     bx, by, bz = setup.beam
     dl = -sensor_height_um(ch.sensor_mm, setup.sign) * 1e-3
     ex, ey, ez = (np.asarray(a, dtype=float) * 1e-6 for a in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad))
-    v = rotate(*datum_angles_rad(ch, setup), (qx - px + dl * bx, qy - py + dl * by, qz - pz + dl * bz))
-    wx, wy, _ = rotate(ex, ey, ez, v)
+    # R0 (Q - P + dl b) = R0 (Q - P) + dl R0 b: two constant vectors rotated instead of every point's
+    datum = datum_angles_rad(ch, setup)
+    cx, cy, cz = rotate(*datum, (qx - px, qy - py, qz - pz))
+    rbx, rby, rbz = rotate(*datum, (bx, by, bz))
+    wx, wy, _ = rotate(ex, ey, ez, (cx + dl * rbx, cy + dl * rby, cz + dl * rbz))
     wx = wx + relative_to_first(ch.x_mm) + relative_to_first(ch.lin_um) * 1e-3
     wy = wy + relative_to_first(ch.stry_um) * 1e-3
     # wx, wy is the sample point minus P_laser; its datum value is (R0 (Q - P)) analytically, so
