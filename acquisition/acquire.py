@@ -263,8 +263,11 @@ def run_straightness(
             def show(p: int, k: int, h: float) -> None:
                 print(f"  live: station {k}{' (return)' if p else ''} surface height {h:+.3f} um", file=stream)
 
-            first = store.loaded_points[0] if rp is not None and store.loaded_points else None
-            live = LiveProfile(setup.geometry, show, first)
+            loaded = store.loaded_points if rp is not None else []
+            first = loaded[0] if loaded else None
+            first_step = next((r for r in loaded if int(r.get("pass", 0)) == 0
+                               and int(r["station"]) == int(loaded[0]["station"]) + 1), None)
+            live = LiveProfile(setup.geometry, show, first, first_step)
             engine = RunEngine(rig, operator, (store, live))
             outcome = engine.run(straightness_plan(setup, {}, resume=rp))
             if sim is not None:

@@ -48,6 +48,8 @@ class StraightnessEvaluation:
         if r.wavelengths:
             w = r.wavelengths[0]
             print(f"  dominant wavelength: {w.wavelength_mm:.0f} mm, amplitude {w.amplitude_um:.3f} um", file=stream)
+        if r.datum is not None:
+            print(f"  datum angles (laser frame): {datum_text(r)}", file=stream)
         if r.return_pass is not None:
             rp = r.return_pass
             closure = "n/a" if rp.closure_um is None else f"{rp.closure_um:.3f} um"
@@ -56,6 +58,27 @@ class StraightnessEvaluation:
                   file=stream)
         if self.verdict is not None:
             print(self.verdict.text(), file=stream)
+
+
+def datum_text(r: StraightnessResult) -> str:
+    """The datum block's angles the exact method used, and where each came from, in one line."""
+    d = r.datum
+    assert d is not None
+    values = {"roll": d.roll_urad, "yaw": d.yaw_urad, "pitch": d.pitch_urad}
+    parts, assumed = [], []
+    for axis in ("pitch", "roll", "yaw"):
+        how = d.source[axis]
+        if how == "assumed":
+            assumed.append(f"{axis} 0")
+        elif how == "estimated":
+            u = f" (u = {r.datum_pitch_u_urad:.2f} urad)" if r.datum_pitch_u_urad is not None else ""
+            parts.append(f"{axis} {values[axis]:.3f} urad estimated from the first step{u}")
+        else:
+            parts.append(f"{axis} {values[axis]:.3f} urad measured")
+    if assumed:
+        why = "no first step to estimate the pitch from" if d.source["pitch"] == "assumed" else "not measured"
+        parts.append(f"{' and '.join(assumed)} assumed ({why})")
+    return "; ".join(parts)
 
 
 # The channels each decoupling method uses (docs/conventions.md); a NaN/inf there cannot be decoupled.

@@ -13,7 +13,7 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from processing.geometry import BlockGeometry
+from processing.geometry import BlockGeometry, DatumAngles
 
 from .errors import SetupError
 from .rig import SENSOR_DRIVERS
@@ -265,6 +265,7 @@ def straightness_setup_from_dict(data: dict[str, Any], source: str = "setup") ->
             sensor_mm=geo.vector("sensor_mm", 3),  # type: ignore[arg-type]
             sensor_beam=geo.vector("sensor_beam", 3, [0.0, -1.0, 0.0]),  # type: ignore[arg-type]
             sensor_sign=geo.get("sensor_sign", str, "height"),
+            datum_angles_urad=DatumAngles.from_dict(geo.get("datum_angles_urad", dict, None)),
         )
     except ValueError as exc:
         raise SetupError(f"{source}: [geometry] {exc}") from None

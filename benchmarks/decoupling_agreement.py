@@ -24,7 +24,7 @@ from scipy.optimize import brentq
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from processing.decoupling import decouple  # noqa: E402
-from processing.geometry import BlockGeometry  # noqa: E402
+from processing.geometry import BlockGeometry, DatumAngles  # noqa: E402
 
 LIMIT_UM = 0.1
 
@@ -55,7 +55,8 @@ def errors(angles: tuple[float, float, float], p: np.ndarray, e: np.ndarray, slo
              "strz_um": d[2] * 1e3, "pitch_urad": angles[2] * 1e6, "yaw_urad": angles[1] * 1e6,
              "roll_urad": angles[0] * 1e6, "sensor_mm": lam0 - lam}]
     pts = pd.DataFrame(rows)
-    geom = BlockGeometry(tuple(p), tuple(e + lam0 * b))  # type: ignore[arg-type]
+    # the datum block's frame is the laser's here (identity pose): its angles are known, all 0
+    geom = BlockGeometry(tuple(p), tuple(e + lam0 * b), datum_angles_urad=DatumAngles(0.0, 0.0, 0.0))  # type: ignore[arg-type]
     h = {m: decouple(pts, geom, m)["height_um"].iloc[1] for m in ("exact", "first-order", "patent")}
     return {m: abs(h[m] - h["exact"]) for m in ("first-order", "patent")}
 

@@ -9,11 +9,15 @@ face at two points (rear and front); its pose is solved exactly (Newton on the
 six contact equations with their analytic Jacobian), with no small-angle
 approximation.
 
-The interferometer is zeroed at the datum pose; its frame is the block frame
-at the datum, so it reports the displacement of the mirror point P and the
-rotation of the block relative to that pose.  The displacement sensor is a
-head at point E on the block, reading along the beam direction b (block
-frame); its reading is the distance from E to where the beam meets the surface.
+The interferometer measures in the laser's fixed frame (its beam along the
+laser's X; :class:`Laser` is its alignment in the world).  It is zeroed with
+the block at the datum pose and then reports, in that frame, the displacement
+of the mirror point P since the datum and the rotation of the block since the
+datum (R_now R_datum^T, as Z-Y-X angles); the datum block itself stands tilted
+in the laser frame by the local slope under it (``datum_angles_urad``).  The
+displacement sensor is a head at point E on the block, reading along the beam
+direction b (block frame); its reading is the distance from E to where the beam
+meets the surface.
 """
 
 from __future__ import annotations
@@ -124,6 +128,19 @@ class Noise:
 
 
 @dataclass(frozen=True)
+class Laser:
+    """Alignment of the laser in the world: its axes are the world's rotated by
+    R = Rz(pitch) Ry(yaw) Rx(roll) (urad); its beam runs along its own X."""
+
+    roll_urad: float = 0.0
+    yaw_urad: float = 0.0
+    pitch_urad: float = 0.0
+
+    def rotation(self) -> np.ndarray:
+        return rotation(self.roll_urad * 1e-6, self.yaw_urad * 1e-6, self.pitch_urad * 1e-6)
+
+
+@dataclass(frozen=True)
 class Environment:
     """Air and material conditions (slow linear drift per hour)."""
 
@@ -197,7 +214,7 @@ class Pose:
 
 @dataclass
 class Capture:
-    """What the interferometer reports: P displacement and block rotation vs the datum."""
+    """What the interferometer reports: P displacement and block rotation since the datum, laser frame."""
 
     position_mm: float
     stry_um: float
@@ -217,10 +234,13 @@ class World:
         block: BlockSetup | None = None,
         noise: Noise | None = None,
         environment: Environment | None = None,
+        laser: Laser | None = None,
         seed: int = 0,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.guideway = guideway or Guideway.from_seed(seed)
+        self.laser = laser or Laser()
+        self._laser_r = self.laser.rotation()  # laser axes in the world (columns)
         self.block = block or BlockSetup()
         self.noise = noise if noise is not None else Noise()
         self.environment = environment or Environment()
@@ -321,10 +341,10 @@ class World:
     def capture(self) -> Capture:
         """Interferometer view of the current pose (with noise)."""
         with self._lock:
-            pose, datum = self._pose, self._datum
+            pose, datum, lr = self._pose, self._datum, self._laser_r
             p = np.asarray(self.block.mirror_mm, dtype=float)
-            d = datum.r.T @ (pose.apply(p) - datum.apply(p))
-            ex, ey, ez = euler_zyx(datum.r.T @ pose.r)
+            d = lr.T @ (pose.apply(p) - datum.apply(p))  # in the laser frame
+            ex, ey, ez = euler_zyx(lr.T @ pose.r @ datum.r.T @ lr)  # rotation since the datum, laser frame
             n = self.noise
             return Capture(
                 position_mm=float(d[0]) + self._n(n.position_um) * 1e-3,
@@ -368,6 +388,16 @@ class World:
             )
 
     # -- ground truth for tests and diagnosis --------------------------------------------
+    def datum_angles_urad(self) -> dict[str, float]:
+        """The datum block's angles in the laser frame (what a set-up's ``datum_angles_urad`` measures)."""
+        with self._lock:
+            ex, ey, ez = euler_zyx(self._laser_r.T @ self._datum.r)
+            return {"roll": ex * 1e6, "yaw": ey * 1e6, "pitch": ez * 1e6}
+
+    def in_laser_frame(self, v: np.ndarray) -> np.ndarray:
+        """A world vector expressed in the laser frame."""
+        return self._laser_r.T @ np.asarray(v, dtype=float)
+
     def true_sample_point(self, station: int) -> np.ndarray:
         """World point where the beam meets the surface with the block at ``station``
         (as last placed, if it is the current station; else a fresh exact placement)."""

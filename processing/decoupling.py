@@ -5,11 +5,13 @@ recorded channels of every point to the surface sample point's position
 ``x_mm`` and height ``height_um`` relative to the first point (the datum):
 
 ``exact`` (default)
-    Full rigid-body kinematics with all six channels: the block's pose
-    relative to the datum from the displacement of the mirror point P and the
-    rotation R = Rz(ez) Ry(ey) Rx(ex); the sensor beam rotates with the block;
-    the sample point is where the beam ends, ``Q + (lambda - lambda0) b`` in the
-    block frame.  No small-angle approximation.
+    Full rigid-body kinematics with all six channels, in the laser's fixed
+    frame: the block's pose from the datum block's angles in that frame
+    (measured, or the pitch estimated from the first step), the displacement
+    of the mirror point P and the rotation R = Rz(ez) Ry(ey) Rx(ex) since the
+    datum; the sensor beam rotates with the block; the sample point is where
+    the beam ends, ``Q + (lambda - lambda0) b`` in the block frame.  No
+    small-angle approximation.
 
 ``first-order``
     ``h = stry + s + (xQ - xP) ez - (zQ - zP) ex`` (all channels relative to the
@@ -28,12 +30,13 @@ evaluation to vary them per trial).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from .geometry import BlockGeometry
+from .geometry import DATUM_AXES, BlockGeometry
 
 METHODS: tuple[str, ...] = ("exact", "first-order", "patent")
 DEFAULT_METHOD = "exact"
@@ -41,12 +44,18 @@ DEFAULT_METHOD = "exact"
 Vec3 = tuple[np.ndarray | float, np.ndarray | float, np.ndarray | float]
 
 
+CHANNEL_COLUMNS: tuple[str, ...] = ("x_mm", "lin_um", "stry_um", "strz_um", "pitch_urad", "yaw_urad",
+                                    "roll_urad", "sensor_mm")
+
+
 @dataclass(frozen=True)
 class Channels:
     """Recorded channels of n points as arrays of shape (..., n); index 0 of the last axis is the datum.
 
     Units as in points.csv.  ``sensor_mm`` is the raw reading (the device's own
-    sign and zero).
+    sign and zero).  ``first_step``: index of the first step's point (the first
+    forward point one station after the datum; None if there is none), from
+    which the exact method estimates the datum pitch.
     """
 
     x_mm: np.ndarray
@@ -57,24 +66,38 @@ class Channels:
     yaw_urad: np.ndarray
     roll_urad: np.ndarray
     sensor_mm: np.ndarray
+    first_step: int | None = None
 
     @staticmethod
     def from_points(points: pd.DataFrame) -> Channels:
-        return Channels(**{f: points[f].to_numpy(dtype=float) for f in Channels.__dataclass_fields__})
+        return Channels(**{f: points[f].to_numpy(dtype=float) for f in CHANNEL_COLUMNS},
+                        first_step=first_step_index(points))
+
+
+def first_step_index(points: pd.DataFrame) -> int | None:
+    """Row index of the first step: the forward-pass point at the datum's station + 1 (None if absent)."""
+    if len(points) == 0:
+        return None
+    st = points["station"].to_numpy(dtype=int)
+    fwd = points["pass"].to_numpy(dtype=int) == 0 if "pass" in points else np.ones(len(st), dtype=bool)
+    hits = np.flatnonzero(fwd & (st == st[0] + 1))
+    return int(hits[0]) if hits.size else None
 
 
 @dataclass(frozen=True)
 class Setup:
-    """Geometry coordinates (mm, block frame) and the sensor sign, possibly per Monte Carlo trial."""
+    """Geometry coordinates (mm, block frame), the sensor sign and the measured datum
+    angles (roll, yaw, pitch in urad, None = not measured), possibly per Monte Carlo trial."""
 
     mirror: Vec3
     sensor: Vec3
     beam: tuple[float, float, float]
     sign: str
+    datum_urad: tuple[float | None, float | None, float | None] = (None, None, None)
 
     @staticmethod
     def from_geometry(g: BlockGeometry) -> Setup:
-        return Setup(g.mirror_mm, g.sensor_mm, g.sensor_beam, g.sensor_sign)
+        return Setup(g.mirror_mm, g.sensor_mm, g.sensor_beam, g.sensor_sign, g.datum_angles_urad.as_tuple())
 
 
 def sensor_height_um(sensor_mm: np.ndarray, sign: str) -> np.ndarray:
@@ -102,43 +125,87 @@ def rotate(ex: np.ndarray, ey: np.ndarray, ez: np.ndarray, v: Vec3) -> Vec3:
     return x, y, z
 
 
-def rotate_back(ex: np.ndarray, ey: np.ndarray, ez: np.ndarray, v: Vec3) -> Vec3:
-    """R^T v for the same R as :func:`rotate`."""
-    x, y, z = v
-    c, s = np.cos(ez), np.sin(ez)
-    x, y = c * x + s * y, -s * x + c * y
-    c, s = np.cos(ey), np.sin(ey)
-    x, z = c * x - s * z, s * x + c * z
-    c, s = np.cos(ex), np.sin(ex)
-    y, z = c * y + s * z, -s * y + c * z
-    return x, y, z
+DATUM_PITCH_ITERATIONS = 3  # each shrinks the pitch error by ~|first step's angle change| x |P| / L (< 1e-2)
+
+
+def estimate_datum_pitch(ch: Channels, setup: Setup, ex0: np.ndarray | float,
+                         ey0: np.ndarray | float) -> np.ndarray | float:
+    """Datum pitch (rad) in the laser frame from the first step; 0 without one.
+
+    The block steps by its own length, so its rear-bottom-centre (the block
+    origin O) at the first step lands where its front-bottom-centre was at the
+    datum: O1 - O0 points along the datum block's X axis, R0 (1, 0, 0) =
+    (cos ey cos ez, cos ey sin ez, -sin ey), whose pitch is atan2 of its Y and
+    X components whatever the roll and yaw.  O = P_laser - R P, so
+    ``O1 - O0 = (d1 - d0) - (dR1 - dR0) R0 P``; R0 holds the pitch sought,
+    solved by fixed-point iteration from 0 (the term is second order).
+    """
+    i = ch.first_step
+    if i is None:
+        return 0.0
+
+    def at(a: np.ndarray, k: int) -> np.ndarray:
+        return np.asarray(a, dtype=float)[..., k:k + 1]
+
+    dx = at(ch.x_mm, i) - at(ch.x_mm, 0) + (at(ch.lin_um, i) - at(ch.lin_um, 0)) * 1e-3
+    dy = (at(ch.stry_um, i) - at(ch.stry_um, 0)) * 1e-3
+    r1 = _xy_rows(*(at(c, i) * 1e-6 for c in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad)))
+    r0 = _xy_rows(*(at(c, 0) * 1e-6 for c in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad)))
+    (m00, m01, m02), (m10, m11, m12) = ((a - b for a, b in zip(ra, rb, strict=True))
+                                        for ra, rb in zip(r1, r0, strict=True))  # dR1 - dR0, rows X and Y
+    wx, wy, wz = rotate(ex0, ey0, 0.0, setup.mirror)  # R0 P = Rz(ez0) w
+    ez0: np.ndarray | float = 0.0
+    for _ in range(DATUM_PITCH_ITERATIONS):
+        c, s = np.cos(ez0), np.sin(ez0)
+        px, py = c * wx - s * wy, s * wx + c * wy
+        ez0 = np.arctan2(dy - (m10 * px + m11 * py + m12 * wz), dx - (m00 * px + m01 * py + m02 * wz))
+    return ez0
+
+
+def _xy_rows(ex: np.ndarray, ey: np.ndarray, ez: np.ndarray) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
+    """The X and Y rows of R = Rz(ez) Ry(ey) Rx(ex)."""
+    cx, sx, cy, sy, cz, sz = np.cos(ex), np.sin(ex), np.cos(ey), np.sin(ey), np.cos(ez), np.sin(ez)
+    return ((cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx),
+            (sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx))
+
+
+def datum_angles_rad(ch: Channels, setup: Setup) -> tuple[np.ndarray | float, np.ndarray | float,
+                                                            np.ndarray | float]:
+    """(ex0, ey0, ez0) of the datum block in the laser frame: the measured ones; an
+    unmeasured pitch estimated from the first step; an unmeasured roll or yaw 0."""
+    roll, yaw, pitch = setup.datum_urad
+    ex0 = 0.0 if roll is None else roll * 1e-6
+    ey0 = 0.0 if yaw is None else yaw * 1e-6
+    ez0 = estimate_datum_pitch(ch, setup, ex0, ey0) if pitch is None else pitch * 1e-6
+    return ex0, ey0, ez0
 
 
 def exact_arrays(ch: Channels, setup: Setup) -> tuple[np.ndarray, np.ndarray]:
-    """(x_mm, height_um) of the surface sample points by exact rigid-body kinematics.
+    """(x_mm, height_um) of the surface sample points by exact rigid-body kinematics, in the laser frame.
 
-    The interferometer frame is the block frame when it was zeroed; the point
-    at index 0 (the datum) has pose (R0, d0) in it, point k has (Rk, dk) with
-    d the displacement of P (mm).  The block pose of point k relative to the
-    datum pose is R0^T Rk, and a block point p goes to
-    ``R0^T (Rk (p - P) + dk - d0) + P`` in the datum block frame.  The sample
-    point is ``p = Q + dl b`` with ``dl = -s`` the change of the beam length
-    (mm; s = sensor change in the height convention), so at the datum it is Q.
+    The interferometer reports, in the laser's fixed frame, the displacement
+    d of P since it was zeroed and the rotation dR = Rz(ez) Ry(ey) Rx(ex)
+    since then; the block's pose then was R0 = R(datum angles).  Point k's
+    pose is (dRk R0, P_laser + dk), so a block point p lies at
+    ``dRk R0 (p - P) + dk`` (plus the constant P_laser).  The sample point is
+    ``p = Q + dl b`` with ``dl = -s`` the change of the beam length (mm; s =
+    sensor change in the height convention), so at the datum it is Q.
     """
     px, py, pz = setup.mirror
     qx, qy, qz = setup.sensor
     bx, by, bz = setup.beam
     dl = -sensor_height_um(ch.sensor_mm, setup.sign) * 1e-3
     ex, ey, ez = (np.asarray(a, dtype=float) * 1e-6 for a in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad))
-    v = (qx - px + dl * bx, qy - py + dl * by, qz - pz + dl * bz)
-    wx, wy, wz = rotate(ex, ey, ez, v)
+    # R0 (Q - P + dl b) = R0 (Q - P) + dl R0 b: two constant vectors rotated instead of every point's
+    datum = datum_angles_rad(ch, setup)
+    cx, cy, cz = rotate(*datum, (qx - px, qy - py, qz - pz))
+    rbx, rby, rbz = rotate(*datum, (bx, by, bz))
+    wx, wy, _ = rotate(ex, ey, ez, (cx + dl * rbx, cy + dl * rby, cz + dl * rbz))
     wx = wx + relative_to_first(ch.x_mm) + relative_to_first(ch.lin_um) * 1e-3
     wy = wy + relative_to_first(ch.stry_um) * 1e-3
-    wz = wz + relative_to_first(ch.strz_um) * 1e-3
-    sx, sy, _ = rotate_back(ex[..., :1], ey[..., :1], ez[..., :1], (wx, wy, wz))
-    # sx + px, sy + py is the sample point; at the datum it is Q analytically, so subtracting
-    # the computed datum value instead of Q makes the datum exactly 0 despite rounding.
-    return relative_to_first(sx), relative_to_first(sy) * 1e3
+    # wx, wy is the sample point minus P_laser; its datum value is (R0 (Q - P)) analytically, so
+    # subtracting the computed datum value makes the datum exactly 0 despite rounding.
+    return relative_to_first(wx), relative_to_first(wy) * 1e3
 
 
 def _nominal_x(ch: Channels) -> np.ndarray:
@@ -189,11 +256,63 @@ def check_method(method: str) -> None:
 
 def decouple(points: pd.DataFrame, geometry: BlockGeometry, method: str = DEFAULT_METHOD) -> pd.DataFrame:
     """Per-point profile (station, x_mm, height_um) by ``method``; the first row is the datum."""
+    return decouple_run(points, geometry, method).profile
+
+
+@dataclass(frozen=True)
+class DatumAnglesUsed:
+    """The datum block's angles in the laser frame (urad) the exact method used, and the
+    source of each: ``measured`` (set-up), ``estimated`` (from the first step) or
+    ``assumed`` (not measured and not observable, taken as 0; a pitch without a first step too)."""
+
+    roll_urad: float
+    yaw_urad: float
+    pitch_urad: float
+    source: dict[str, str]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"roll": self.roll_urad, "yaw": self.yaw_urad, "pitch": self.pitch_urad, "source": dict(self.source)}
+
+
+def datum_angles_of(ch: Channels, setup: Setup) -> DatumAnglesUsed:
+    """The datum angles :func:`exact_arrays` takes for these channels (one run, 1-D channels)."""
+    angles = datum_angles_rad(ch, setup)
+    source, used = {}, []
+    for axis, given, rad in zip(DATUM_AXES, setup.datum_urad, angles, strict=True):
+        estimated = axis == "pitch" and ch.first_step is not None
+        source[axis] = "measured" if given is not None else ("estimated" if estimated else "assumed")
+        used.append(float(given) if given is not None else float(np.asarray(rad).reshape(-1)[0]) * 1e6)
+    return DatumAnglesUsed(*used, source=source)
+
+
+def datum_angles_used(points: pd.DataFrame, geometry: BlockGeometry) -> DatumAnglesUsed:
+    """What :func:`exact_arrays` takes for the datum angles of this run."""
+    return datum_angles_of(Channels.from_points(points), Setup.from_geometry(geometry))
+
+
+@dataclass(frozen=True)
+class Decoupled:
+    """A decoupled run: the per-point profile (station, x_mm, height_um; the first row is the
+    datum), the channels it came from and, for ``exact``, the datum angles it used."""
+
+    profile: pd.DataFrame
+    channels: Channels
+    datum: DatumAnglesUsed | None
+
+
+def decouple_run(points: pd.DataFrame, geometry: BlockGeometry, method: str = DEFAULT_METHOD) -> Decoupled:
+    """Decouple every point by ``method`` (see :func:`decouple`), keeping what the result reports."""
     check_method(method)
     if len(points) == 0:
         raise ValueError("no points to process")
-    x, h = DECOUPLERS[method](Channels.from_points(points), Setup.from_geometry(geometry))
-    return pd.DataFrame({"station": points["station"].to_numpy(dtype=int), "x_mm": x, "height_um": h})
+    ch, setup = Channels.from_points(points), Setup.from_geometry(geometry)
+    datum = None
+    if method == "exact":
+        datum = datum_angles_of(ch, setup)
+        setup = replace(setup, datum_urad=(datum.roll_urad, datum.yaw_urad, datum.pitch_urad))  # estimated once
+    x, h = DECOUPLERS[method](ch, setup)
+    profile = pd.DataFrame({"station": points["station"].to_numpy(dtype=int), "x_mm": x, "height_um": h})
+    return Decoupled(profile, ch, datum)
 
 
 def decouple_first_order(points: pd.DataFrame, geometry: BlockGeometry) -> pd.DataFrame:

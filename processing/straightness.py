@@ -10,11 +10,19 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .decoupling import DEFAULT_METHOD, METHODS, check_method, decouple
+from .decoupling import DEFAULT_METHOD, METHODS, DatumAnglesUsed, check_method, decouple_run
 from .geometry import BlockGeometry
 from .passes import ReturnPassSummary, check_order, return_pass_summary, station_groups
 from .reference_lines import LineFit, endpoint_line, least_squares_line, minimum_zone_line
-from .uncertainty import K, MonteCarloResult, UncertaintyInputs, gum_per_station, monte_carlo, profile_slope
+from .uncertainty import (
+    K,
+    MonteCarloResult,
+    UncertaintyInputs,
+    datum_pitch_u_urad,
+    gum_per_station,
+    monte_carlo,
+    profile_slope,
+)
 from .wavelength import Peak, dominant_wavelengths
 
 __all__ = ["METHODS", "StraightnessResult", "Uncertainty", "evaluate_straightness"]
@@ -57,6 +65,8 @@ class StraightnessResult:
     uncertainty: Uncertainty | None = None
     wavelengths: list[Peak] = field(default_factory=list)
     return_pass: ReturnPassSummary | None = None
+    datum: DatumAnglesUsed | None = None  # exact method: the datum block's angles in the laser frame
+    datum_pitch_u_urad: float | None = None  # u of an estimated datum pitch (with uncertainty inputs)
 
     def straightness_um(self) -> dict[str, float]:
         return {name: fit.straightness_um for name, fit in self.lines.items()}
@@ -83,6 +93,10 @@ class StraightnessResult:
             d["uncertainty_um"] = self.uncertainty.to_dict()
         if self.return_pass is not None:
             d["return_pass"] = self.return_pass.to_dict()
+        if self.datum is not None:
+            d["datum_angles_urad"] = self.datum.to_dict()
+            if self.datum.source["pitch"] == "estimated" and self.datum_pitch_u_urad is not None:
+                d["datum_angles_urad"]["pitch_u_urad"] = self.datum_pitch_u_urad
         return d
 
 
@@ -100,7 +114,8 @@ def evaluate_straightness(
     given, the GUM per-station and (``mc_trials`` > 0) Monte Carlo uncertainties."""
     check_method(method)
     check_order(points)
-    per_point = decouple(points, geometry, method)
+    dec = decouple_run(points, geometry, method)
+    per_point = dec.profile
     groups = station_groups(points)
     x = groups.average(per_point["x_mm"].to_numpy())
     h = groups.average(per_point["height_um"].to_numpy())
@@ -112,7 +127,7 @@ def evaluate_straightness(
     unc = None
     if uncertainty is not None:
         slope = profile_slope(x, h)
-        u = gum_per_station(points, geometry, method, uncertainty, groups, slope, x)
+        u = gum_per_station(points, geometry, method, uncertainty, groups, slope)
         mc = (monte_carlo(points, geometry, method, uncertainty, groups, x, slope, trials=mc_trials,
                           seed=mc_seed, lines=tuple(lines)) if mc_trials > 0 and lines else None)
         unc = Uncertainty(uncertainty, u, mc)
@@ -120,4 +135,7 @@ def evaluate_straightness(
         method=method, profile=profile, lines=lines, uncertainty=unc,
         wavelengths=dominant_wavelengths(x, h) if np.all(np.diff(x) > 0) else [],
         return_pass=return_pass_summary(points, per_point),
+        datum=dec.datum,
+        datum_pitch_u_urad=(datum_pitch_u_urad(dec.channels, geometry, uncertainty)
+                            if method == "exact" and uncertainty is not None else None),
     )

@@ -23,9 +23,14 @@ dh/dez = (xQ - xP), dh/dex = -(zQ - zP), dh/dxQ = -dh/dxP = ez_j,
 dh/dzQ = -dh/dzP = -ex_j.  A position error dx of a point moves it along the
 profile: dh = (local profile slope) dx, with u(dx) = step_mm for the methods
 that use the nominal travel and position_um for ``exact`` (it measures x).
-The exact method expresses the profile in the datum's block frame, so the
-datum's own pitch reading also tilts it: dh_k/dez_0 gains -x_k (a straight
-line: it cancels in every straightness value).  Yaw, strz and the y coordinates of P and Q enter only at second order.
+The exact method expresses the profile in the laser's fixed frame, so the
+datum's own readings enter it like any other point's (no frame tilt).  Yaw,
+strz and the y coordinates of P and Q enter only at second order, and so do
+the datum block's angles in the laser frame: an error e0 of them moves a
+height by at most |dR - I| |e0| (|v| + |yQ - yP|) (docs/conventions.md), below
+1e-4 um for the estimated pitch's u (:func:`datum_pitch_u_urad`, ~1.4 urad) at
+the angle changes of a guideway; the Monte Carlo re-estimates the pitch in
+every trial, so it is in the straightness U all the same.
 
 Monte Carlo (GUM-S1): the same input distributions (normal; the sensor
 resolution uniform over one display step), seeded, drawn ``trials`` times;
@@ -95,25 +100,21 @@ class UncertaintyInputs:
         return self.position_um if method == "exact" else self.step_mm * 1e3
 
 
-def _datum_coefficient(groups: StationGroups, datum_weight: float, c: np.ndarray,
-                       datum_extra: np.ndarray | None) -> np.ndarray:
+def _datum_coefficient(groups: StationGroups, datum_weight: float, c: np.ndarray) -> np.ndarray:
     """Coefficient of the datum point (index 0) in each output station's height."""
     k0 = groups.group[0]
     coef = np.full(len(groups.stations), -datum_weight * c[0])
     coef[k0] += c[0] / groups.counts[k0]  # the datum is also one of its own station's points
-    if datum_extra is not None:
-        coef += datum_extra
     return coef
 
 
-def _sum_sq(groups: StationGroups, datum_weight: float, c: np.ndarray,
-            datum_extra: np.ndarray | None = None) -> np.ndarray:
+def _sum_sq(groups: StationGroups, datum_weight: float, c: np.ndarray) -> np.ndarray:
     """sum_j (w_kj c_j)^2 per output station: the station's own points get w = 1/n_k,
-    the datum point its combined coefficient (``datum_extra[k]`` added to it)."""
+    the datum point its combined coefficient."""
     wc = c / groups.counts[groups.group]
     wc[0] = 0.0
     own = np.bincount(groups.group, weights=wc**2, minlength=len(groups.stations))
-    return own + _datum_coefficient(groups, datum_weight, c, datum_extra) ** 2
+    return own + _datum_coefficient(groups, datum_weight, c) ** 2
 
 
 def _sum(groups: StationGroups, datum_weight: float, c: np.ndarray) -> np.ndarray:
@@ -121,7 +122,7 @@ def _sum(groups: StationGroups, datum_weight: float, c: np.ndarray) -> np.ndarra
     wc = c / groups.counts[groups.group]
     wc[0] = 0.0
     own = np.bincount(groups.group, weights=wc, minlength=len(groups.stations))
-    return own + _datum_coefficient(groups, datum_weight, c, None)
+    return own + _datum_coefficient(groups, datum_weight, c)
 
 
 def profile_slope(x_mm: np.ndarray, h_um: np.ndarray) -> np.ndarray:
@@ -131,9 +132,28 @@ def profile_slope(x_mm: np.ndarray, h_um: np.ndarray) -> np.ndarray:
     return np.gradient(h_um, x_mm)
 
 
+def datum_pitch_u_urad(ch: Channels, geometry: BlockGeometry, inputs: UncertaintyInputs) -> float | None:
+    """Standard uncertainty (urad) of the datum pitch estimated from the first step (None without one).
+
+    The estimate is the direction of O1 - O0 (docs/conventions.md); to first
+    order its Y component is (stry1 - stry0) - (ez1 - ez0) xP + (ex1 - ex0) zP
+    (two independent captures of each channel; xP and zP known to offset_mm)
+    and its X component the step L, so u = u(Y) / L.
+    """
+    i = ch.first_step
+    if i is None:
+        return None
+    xp, _, zp = geometry.mirror_mm
+    step_mm = float(ch.x_mm[i] - ch.x_mm[0])
+    dez, dex = (float(a[i] - a[0]) * 1e-3 for a in (ch.pitch_urad, ch.roll_urad))
+    var_um2 = (2.0 * inputs.straightness_um**2 + 2.0 * (xp**2 + zp**2) * (inputs.angle_urad * 1e-3) ** 2
+               + (dez**2 + dex**2) * inputs.offset_mm**2)
+    return math.sqrt(var_um2) / abs(step_mm) * 1e3 if step_mm else None
+
+
 def gum_per_station(points: pd.DataFrame, geometry: BlockGeometry, method: str, inputs: UncertaintyInputs,
-                    groups: StationGroups, slope_um_per_mm: np.ndarray, x_mm: np.ndarray) -> np.ndarray:
-    """Combined standard uncertainty u (um, k = 1) of each output station's height (at ``x_mm``)."""
+                    groups: StationGroups, slope_um_per_mm: np.ndarray) -> np.ndarray:
+    """Combined standard uncertainty u (um, k = 1) of each output station's height."""
     n = len(points)
     xp, _, zp = geometry.mirror_mm
     xq, _, zq = geometry.sensor_mm
@@ -141,9 +161,7 @@ def gum_per_station(points: pd.DataFrame, geometry: BlockGeometry, method: str, 
     ref = 0.0 if method == "patent" else 1.0  # interferometer channels re-referenced to the datum?
     var = _sum_sq(groups, 1.0, ones) * inputs.sensor_um**2
     var += _sum_sq(groups, ref, ones) * inputs.straightness_um**2
-    # exact: the datum's own pitch also tilts the datum frame, h_k gains -x_k ez_0
-    tilt = -np.asarray(x_mm, dtype=float) * 1e-3 if method == "exact" else None
-    var += _sum_sq(groups, ref, ones * (xq - xp) * 1e-3, tilt) * inputs.angle_urad**2
+    var += _sum_sq(groups, ref, ones * (xq - xp) * 1e-3) * inputs.angle_urad**2
     var += _sum_sq(groups, ref, ones * (zq - zp) * 1e-3) * inputs.angle_urad**2
     ez = points["pitch_urad"].to_numpy(dtype=float) * 1e-3  # um per mm of offset
     ex = points["roll_urad"].to_numpy(dtype=float) * 1e-3
@@ -216,13 +234,13 @@ def monte_carlo(points: pd.DataFrame, geometry: BlockGeometry, method: str, inpu
         chp = Channels(x_mm=ch.x_mm, lin_um=ch.lin_um, stry_um=noisy(ch.stry_um, u.straightness_um),
                        strz_um=noisy(ch.strz_um, u.straightness_um),
                        pitch_urad=noisy(ch.pitch_urad, u.angle_urad), yaw_urad=noisy(ch.yaw_urad, u.angle_urad),
-                       roll_urad=noisy(ch.roll_urad, u.angle_urad), sensor_mm=sensor)
+                       roll_urad=noisy(ch.roll_urad, u.angle_urad), sensor_mm=sensor, first_step=ch.first_step)
 
         def offset(v: float, m: int = m) -> np.ndarray:
             return v + rng.normal(0.0, u.offset_mm, (m, 1))
 
         sp = Setup(tuple(offset(v) for v in setup.mirror), tuple(offset(v) for v in setup.sensor),  # type: ignore[arg-type]
-                   setup.beam, setup.sign)
+                   setup.beam, setup.sign, setup.datum_urad)
         _, h = decouple(chp, sp)
         dx = rng.normal(0.0, u.x_um(method) * 1e-3, (m, n))
         dx -= dx[:, :1]

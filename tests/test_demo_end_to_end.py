@@ -41,6 +41,15 @@ def test_noise_free_profile_within_10_nm(tmp_path: Path) -> None:
     assert np.max(np.abs(err)) < 0.01
     # and the profile is not trivially flat: the surface has um-level waviness
     assert np.ptp(h_true) > 2.0
+    # The exact method works in the laser's frame (the simulated world's): the profile is the
+    # surface itself, no line removed, with the datum block's pitch estimated from the first step.
+    world = res.sim.world
+    datum = res.result.datum
+    assert datum is not None and datum.source["pitch"] == "estimated"
+    assert abs(datum.pitch_urad - world.datum_angles_urad()["pitch"]) < 0.01
+    assert abs(world.datum_angles_urad()["pitch"]) > 1.0  # the datum block does stand tilted
+    assert np.max(np.abs(prof["height_um"].to_numpy() - h_true)) < 0.01
+    assert np.max(np.abs(prof["x_mm"].to_numpy() - (x_true - x_true[0]))) < 1e-6
 
 
 def test_noisy_profile_within_four_sigma(tmp_path: Path) -> None:

@@ -8,7 +8,7 @@ from typing import Any
 from processing.straightness import StraightnessResult
 from processing.uncertainty import K
 
-from ..evaluate_straightness import StraightnessEvaluation
+from ..evaluate_straightness import StraightnessEvaluation, datum_text
 from ..results import LINE_LABELS, profile_figure
 from .common import verdict_section
 from .html import HtmlPage, figure_png
@@ -68,6 +68,7 @@ def summary_section(page: HtmlPage, evaluation: StraightnessEvaluation) -> None:
         ("travel (mm)", travel),
         ("gauge block length (mm)", setup.get("block_length_mm", "—")),
         ("decoupling method", METHOD_LABELS.get(r.method, r.method)),
+        *([("datum angles (laser frame)", datum_text(r))] if r.datum is not None else []),
     ], digits=3)
     mc = r.uncertainty.to_dict().get("straightness", {}) if r.uncertainty is not None else {}
     interval = (r.uncertainty.to_dict().get("straightness_interval_95", {})

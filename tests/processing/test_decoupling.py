@@ -19,8 +19,8 @@ B = np.array([0.0, -1.0, 0.0])          # beam direction
 
 def simulate(poses: list, sign: str):
     """points DataFrame, true heights (um) and Q for poses (ex, ey, ez [rad], tx, ty, tz [mm])."""
-    rows, truth, q = rigid_body.simulate(poses, P, E, B, sign)
-    return pd.DataFrame(rows), truth[:, 1] * 1e3, q
+    rec = rigid_body.simulate(poses, P, E, B, sign)
+    return pd.DataFrame(rec.rows), rec.truth[:, 1] * 1e3, rec.q
 
 
 def random_poses(rng: np.random.Generator, n: int, angle: float) -> list:
