@@ -35,7 +35,7 @@ def test_both_devices_identity_and_three_readings(sim_rig, capsys: pytest.Captur
     assert code == 0, err
     # the LK-G command set has no identity query: the line says so, and names the command set spoken
     assert lines[0] == (f"sensor {sensor}: model=(not reported; protocol keyence-lkg) "
-                        "commands=Keyence LK-G3000 (RS-232C)")
+                        "commands=Keyence LK-G3000 (RS-232C) output=1")
     assert lines[1].startswith(f"controller {sim_rig.controller_url}: vendor=guideway-sim")
     assert "model=SIM-6DOF-IFM" in lines[1]
     sensor_lines = [ln for ln in lines if " sensor: " in ln]
@@ -58,12 +58,14 @@ def test_both_devices_identity_and_three_readings(sim_rig, capsys: pytest.Captur
     assert 15 < float(env[1]) < 25 and 900 < float(env[4]) < 1100
 
 
-def test_controller_error_is_shown_as_a_reading(sim_rig, capsys: pytest.CaptureFixture[str]) -> None:
+def test_controller_error_is_shown_as_a_reading_and_is_not_a_pass(sim_rig, capsys: pytest.CaptureFixture[str]
+                                                                   ) -> None:
     sim_rig.world.beam_blocked = True
     code, lines, err = probe(capsys, "--controller", sim_rig.controller_url, "--count", "1")
-    assert code == 0, err
+    assert code == 3, err  # the device answered, but reports an error: exit 3, not 0
     assert lines[1].startswith("#1 controller: device error: device reported error 1")
     assert "error" in lines[2] and "beam-ok" not in lines[2]
+    assert err.strip() == "guideway: 1 reading(s) with a device error: not a pass (exit 3)"
 
 
 def test_sensor_answering_garbage_exits_2_one_line() -> None:

@@ -101,11 +101,12 @@ def test_dropped_reply_is_a_timeout_and_the_next_request_is_answered(transport: 
         assert ctl.read_status().ready
 
 
-def test_dropped_trigger_reply_is_retried() -> None:
-    # The write was executed, only its reply was lost: the retry triggers once more.
-    with rig("controller:drop@2x1") as (_, ctl):
+def test_dropped_trigger_reply_keeps_the_measurement_it_started() -> None:
+    # The write was executed, only its reply was lost: the status shows the new sequence number,
+    # so the measurement it started is used; no second trigger.
+    with rig("controller:drop@2x1") as (emu, ctl):
         reading = ctl.trigger_and_read()
-        assert reading.ok and reading.sequence == 2
+        assert reading.ok and reading.sequence == 1 and emu.sequence == 1
 
 
 def test_connection_closed_mid_run_is_connection_lost_then_reconnects() -> None:
