@@ -143,13 +143,9 @@ class InterferometerController:
             raise DeviceError(st.error_code, st.error_text or "error flag set", command=what)
 
     def zero(self) -> ControllerStatus:
-        """Set the datum at the current pose (all channels read 0 afterwards)."""
-        before = self.read_status()
-        self._raise_if_error(before, "zero")
-        self._write_command("zero")
-        st = self._wait(lambda s: (s.sequence != before.sequence or s.error) and not s.busy, "zero")
-        self._raise_if_error(st, "zero")
-        return st
+        """Set the datum at the current pose (all channels read 0 afterwards); waited for like a
+        trigger (:meth:`trigger_and_read`)."""
+        return self._run_command("zero")
 
     def clear_error(self) -> ControllerStatus:
         """Clear a latched error (command 5) and return the status afterwards.
@@ -158,7 +154,7 @@ class InterferometerController:
         the error flag set or the *beam OK* bit clear.
         """
         self._write_command("clear_error")
-        return self._wait(lambda s: not s.error and not s.busy, "clear error", raise_on_timeout=False)
+        return self._wait(lambda s: not s.busy, "clear error", raise_on_timeout=False)
 
     def _read_consistent(self, st: ControllerStatus) -> InterferometerReading:
         """Read the data block; accept it if the sequence counter did not move meanwhile."""
@@ -177,15 +173,36 @@ class InterferometerController:
         """Read the latest measurement without triggering."""
         return self._read_consistent(self.read_status())
 
-    def _start_trigger(self, sequence: int) -> None:
-        """Write the trigger; if its reply is lost, write it again only when the controller shows
+    def _start(self, command: str, sequence: int) -> None:
+        """Write the command; if its reply is lost, write it again only when the controller shows
         it did not take it (neither busy nor a new sequence number)."""
         try:
-            self._write_command("trigger")
+            self._write_command(command)
         except TransportTimeout:
             st = self.read_status()
             if not (st.busy or st.sequence != sequence):
-                self._write_command("trigger")
+                self._write_command(command)
+
+    def _run_command(self, command: str) -> ControllerStatus:
+        """Trigger or zero: start the measurement and wait for its completion (see :meth:`trigger_and_read`)."""
+        before = self.read_status()
+        if before.busy:  # an earlier trigger is still running: let it finish first
+            before = self._wait(lambda s: not s.busy, "previous measurement")
+        self._raise_if_error(before, command)
+        seq = before.sequence
+        self._start(command, seq)
+        for attempt in range(self.retries + 1):
+            try:
+                st = self._wait(lambda s: (s.sequence != seq or s.error) and not s.busy, command)
+            except CompletionTimeout as exc:
+                if attempt == self.retries:
+                    raise
+                if not (isinstance(exc.status, ControllerStatus) and exc.status.busy):  # the command was not taken
+                    self._start(command, seq)
+                continue
+            self._raise_if_error(st, command)
+            return st
+        raise AssertionError("unreachable")  # pragma: no cover
 
     def trigger_and_read(self) -> InterferometerReading:
         """Trigger one measurement, wait for it and return it.
@@ -199,24 +216,7 @@ class InterferometerController:
         the error flag raises :class:`DeviceError` with the controller's error
         code and text (the error stays latched until :meth:`clear_error`).
         """
-        before = self.read_status()
-        if before.busy:  # an earlier trigger is still running: let it finish first
-            before = self._wait(lambda s: not s.busy, "previous measurement")
-        self._raise_if_error(before, "trigger")
-        seq = before.sequence
-        self._start_trigger(seq)
-        for attempt in range(self.retries + 1):
-            try:
-                st = self._wait(lambda s: (s.sequence != seq or s.error) and not s.busy, "trigger")
-            except CompletionTimeout as exc:
-                if attempt == self.retries:
-                    raise
-                if not (isinstance(exc.status, ControllerStatus) and exc.status.busy):  # the trigger was not taken
-                    self._start_trigger(seq)
-                continue
-            self._raise_if_error(st, "trigger")
-            return self._read_consistent(st)
-        raise AssertionError("unreachable")  # pragma: no cover
+        return self._read_consistent(self._run_command("trigger"))
 
     def identify(self) -> dict[str, str]:
         """Vendor, product code, revision, product and model from Modbus 'read device
