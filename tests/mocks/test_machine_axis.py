@@ -13,6 +13,7 @@ from pymodbus.client import ModbusTcpClient
 from drivers.interferometer import load_register_map
 from mocks import machine_axis as ma
 from mocks.interferometer import InterferometerEmulator, ModbusServerThread
+from tests.waiting import wait_for
 
 
 def test_addresses_follow_the_map() -> None:
@@ -80,3 +81,29 @@ def test_rotary_angle_register_holds_the_capture() -> None:
     ext.access(0, 200, regs, None)
     angle = struct.unpack(">d", b"".join(w.to_bytes(2, "big") for w in regs[208:212]))[0]
     assert angle == pytest.approx(90.0 - 3.6 / 3600.0)  # stops short by half the backlash (arcsec)
+
+
+def test_bits_left_by_an_earlier_cycle_until_the_program_starts() -> None:
+    # docs/modbus-map.md: b1 set at program start (b0/b2 of the earlier cycle cleared), b2 at its end
+    axis = ma.MachineAxis(STOPS, errors=ma.AxisErrors(noise=0.0), handshake="ack", bits_left_set=True,
+                          program_start_s=0.2)
+    emu = InterferometerEmulator(axis, extension=ma.InPositionRegisters(axis))  # type: ignore[arg-type]
+    server = ModbusServerThread(emu.device())
+    client = ModbusTcpClient("127.0.0.1", port=server.port)
+    try:
+        assert client.connect()
+
+        def inpos() -> list[int]:
+            return client.read_holding_registers(200, count=5, device_id=1).registers
+
+        # in position (b0) at the earlier cycle's last stop (target 1, run 1, -), counter 57; finished (b2)
+        assert inpos() == [ma.IP_IN_POSITION | ma.IP_DONE, 1, 1, 0xFFFF, 57]
+        client.write_register(205, 57, device_id=1)  # acknowledging the stale event does not start anything
+        assert inpos()[0] == ma.IP_IN_POSITION | ma.IP_DONE and axis.index == -1
+        axis.cycle_start()
+        assert inpos()[0] == ma.IP_IN_POSITION | ma.IP_DONE  # Cycle Start pressed, the program not started yet
+        wait_for(lambda: inpos()[0] & ma.IP_RUNNING, timeout_s=5, what="the program to start")
+        assert inpos() == [ma.IP_IN_POSITION | ma.IP_RUNNING, 1, 1, 1, 58]  # target 1, run 1, +: a new event
+    finally:
+        client.close()
+        server.stop()
