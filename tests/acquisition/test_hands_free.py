@@ -12,7 +12,6 @@ import tomllib
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 import pytest
 
@@ -22,9 +21,10 @@ from acquisition.plans.straightness import straightness_plan
 from acquisition.runstore import load_run
 from acquisition.setup import StraightnessSetup, straightness_setup_from_dict
 from acquisition.simulation import SimulatedRig, start_simulated_rig
-from drivers.readings import AveragedDisplacement, ControllerStatus, InterferometerReading
+from drivers.readings import ControllerStatus, InterferometerReading
 
 from ..waiting import wait_for
+from .plan_driver import Scripted, drive
 
 ROOT = Path(__file__).resolve().parents[2]
 OK = ControllerStatus(True, False, True, False, True, 1, 0, "", 0b10101)
@@ -46,30 +46,12 @@ def ifm(t: float, x_mm: float) -> InterferometerReading:
 def test_the_plan_waits_for_the_block_at_the_station_and_still() -> None:
     s = setup(2)  # station 1 at x = 100 mm; max_lin_um 2000, still 2 um over 0.3 s, polled every 0.05 s
     # (time s, position mm) of the block at station 0, then being slid to station 1
-    script = iter([(0.0, 0.0),  # datum capture
-                   (1.0, 0.0), (1.05, 60.0),  # not at station 1 yet
-                   (1.10, 98.5), (1.15, 99.2),  # within 2000 um, but still moving
-                   (1.20, 100.0010), (1.25, 100.0011), (1.30, 100.0009), (1.35, 100.0012), (1.40, 100.0010),
-                   (1.45, 100.0011), (1.50, 100.0010), (1.55, 100.0010)])
-    msgs: list[Any] = []
-    plan = straightness_plan(s, {}, hands_free=True)
-    reply: Any = None
-    while True:
-        try:
-            msg = plan.send(reply)
-        except StopIteration:
-            break
-        msgs.append(msg)
-        if isinstance(msg, m.TriggerInterferometer):
-            reply = ifm(*next(script))
-        elif isinstance(msg, m.ReadSensor):
-            reply = AveragedDisplacement(0.0, 0.0, 2, 0, 0.0, ())
-        elif isinstance(msg, m.Wait):
-            reply = msg.seconds
-        elif isinstance(msg, m.Instruct | m.Prompt):
-            reply = msg.choices[0]
-        else:
-            reply = 0.0 if isinstance(msg, m.OpenRun) else None
+    script = [(0.0, 0.0),  # datum capture
+              (1.0, 0.0), (1.05, 60.0),  # not at station 1 yet
+              (1.10, 98.5), (1.15, 99.2),  # within 2000 um, but still moving
+              (1.20, 100.0010), (1.25, 100.0011), (1.30, 100.0009), (1.35, 100.0012), (1.40, 100.0010),
+              (1.45, 100.0011), (1.50, 100.0010), (1.55, 100.0010)]
+    msgs = drive(straightness_plan(s, {}, hands_free=True), Scripted(ifm(*r) for r in script)).msgs
     rows = [x.data for x in msgs if isinstance(x, m.Record)]
     # nobody was asked to place the block at station 1 (only the datum instruction)
     assert [x.key for x in msgs if isinstance(x, m.Instruct)] == ["datum"]

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import io
 import re
-from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -26,6 +25,7 @@ from acquisition.positioning_setup import TriggerSetup, positioning_setup_from_d
 from acquisition.runstore import load_run
 from drivers.interferometer import load_register_map
 
+from .plan_driver import Scripted, drive
 from .test_positioning_workflow import example, ifm, psetup
 
 
@@ -108,27 +108,8 @@ def stability_setup():
 
 def run_script(positions: list[float]) -> list[Any]:
     """Drive the stability plan with readings at ``positions`` (0.1 s apart); every message it sent."""
-    s = stability_setup()
-    readings: Iterator[float] = iter(positions)
-    msgs: list[Any] = []
-    plan = positioning_plan(s, {})
-    reply: Any = None
-    t = 0.0
-    while True:
-        try:
-            msg = plan.send(reply)
-        except StopIteration:
-            return msgs
-        msgs.append(msg)
-        if isinstance(msg, m.TriggerInterferometer):
-            t += 0.1
-            reply = ifm(next(readings), t)
-        elif isinstance(msg, m.Wait):
-            reply = msg.seconds
-        elif isinstance(msg, m.Instruct | m.Prompt):
-            reply = msg.choices[0]
-        else:
-            reply = 0.0 if isinstance(msg, m.OpenRun) else None
+    readings = (ifm(x, 0.1 * (k + 1)) for k, x in enumerate(positions))
+    return drive(positioning_plan(stability_setup(), {}), Scripted(readings)).msgs
 
 
 def still(x: float, n: int = 7) -> list[float]:

@@ -29,6 +29,8 @@ from drivers.readings import ControllerStatus, InterferometerReading
 from processing.air_index import air_index
 from processing.columns import POSITIONING_LINEAR, POSITIONING_ROTARY
 
+from .plan_driver import Scripted, drive
+
 ROOT = Path(__file__).resolve().parents[2]
 OK = ControllerStatus(True, False, True, False, True, 1, 0, "", 0b10101)
 
@@ -69,16 +71,6 @@ class Machine:
             q = self.answers.get(msg.key)
             return q.pop(0) if q else msg.choices[0]
         return None
-
-
-def drive(plan, responder) -> Any:
-    reply = None
-    while True:
-        try:
-            msg = plan.send(reply)
-        except StopIteration:
-            return responder
-        reply = responder(msg)
 
 
 def test_in_position_sequence_and_acknowledge() -> None:
@@ -145,24 +137,15 @@ def test_stability_trigger_waits_for_a_still_axis() -> None:
     s = psetup("stability", targets=(100.0, 150.0), overrun=5.0, feed_per_min=600.0,
                trigger=TriggerSetup(mode="stability", dwell_s=1.0, stability_window=1.0, near=0.5, poll_s=0.1))
     # readings (time s, position mm) while the axis approaches and settles at target 1 (100 mm)
-    script = iter([(0.0, 95.0), (0.1, 99.8), (0.2, 100.0040), (0.3, 100.0012), (0.4, 100.0010), (0.5, 100.0011),
-                   (0.6, 100.0013), (0.7, 100.0012), (0.8, 100.0010), (0.9, 100.0011)])
+    script = [(0.0, 95.0), (0.1, 99.8), (0.2, 100.0040), (0.3, 100.0012), (0.4, 100.0010), (0.5, 100.0011),
+              (0.6, 100.0013), (0.7, 100.0012), (0.8, 100.0010), (0.9, 100.0011)]
     plan = positioning_plan(s, {})
+
+    responder = Scripted(ifm(x, t) for t, x in script)
     reply: Any = None
-    while True:
-        msg = plan.send(reply)
-        if isinstance(msg, m.Record):
-            row = msg.data
-            break
-        if isinstance(msg, m.TriggerInterferometer):
-            t, x = next(script)
-            reply = ifm(x, t)
-        elif isinstance(msg, m.Wait):
-            reply = msg.seconds
-        elif isinstance(msg, m.Instruct | m.Prompt):
-            reply = msg.choices[0]
-        else:
-            reply = 0.0 if isinstance(msg, m.OpenRun) else None
+    while not isinstance(msg := plan.send(reply), m.Record):
+        reply = responder(msg)
+    row = msg.data
     plan.close()
     # 95.0 is not near; 99.8 and 100.0040 drop out of the 1 um window; from 100.0012 at 0.3 s the
     # position stays within 1 um, and at 0.8 s it has done so for dwell / 2 = 0.5 s
