@@ -203,3 +203,16 @@ def test_bad_device_keys_are_one_line_setup_errors(tables: dict, message: str) -
         straightness(**tables)
     text = str(info.value)
     assert message in text and text.startswith("setup.toml: ") and "\n" not in text
+
+
+def test_a_positioning_set_up_takes_the_same_controller_keys() -> None:
+    from acquisition.positioning_setup import positioning_setup_from_dict
+
+    from .test_positioning_workflow import example
+
+    s = positioning_setup_from_dict(example(controller={"trigger_timeout_s": 5.0, "trigger_retries": 0,
+                                                        "url": "modbus-tcp://10.0.0.5:502?device_id=7"}))
+    assert (s.devices.trigger_timeout_s, s.devices.trigger_retries) == (5.0, 0)
+    assert s.to_run_setup()["devices"]["trigger_timeout_s"] == 5.0
+    with pytest.raises(SetupError, match=r"setup: \[controller\] request_timeout_s must be a positive number"):
+        positioning_setup_from_dict(example(controller={"request_timeout_s": 0.0}))
