@@ -169,7 +169,7 @@ def sensor_options_problem(protocol: str, options: SensorOptions) -> str | None:
 
 
 def open_sensor(protocol: str, url: str, *, baudrate: int | None = 115200,
-                options: SensorOptions = SensorOptions()) -> DisplacementSensor:
+                options: SensorOptions = DEFAULT_SENSOR_OPTIONS) -> DisplacementSensor:
     """Open a displacement sensor by protocol name (``keyence-lkg``) and pyserial URL.
 
     ``baudrate`` ``None`` opens the port at the driver's own default rate; ``options``: the
@@ -195,7 +195,7 @@ def open_sensor(protocol: str, url: str, *, baudrate: int | None = 115200,
 
 def open_rig(sensor_protocol: str, sensor_url: str, controller_url: str, *, baudrate: int | None = None,
              word_order: str = "ABCD", environment_url: str | None = None,
-             timing: ControllerTiming = ControllerTiming(), sensor_options: SensorOptions = SensorOptions()) -> Rig:
+             timing: ControllerTiming = DEFAULT_TIMING, sensor_options: SensorOptions = DEFAULT_SENSOR_OPTIONS) -> Rig:
     """Open the devices; a one-line :class:`UserError` if one is unreachable (the others are closed)."""
     sensor = open_sensor(sensor_protocol, sensor_url, baudrate=baudrate, options=sensor_options)
     try:
@@ -252,7 +252,7 @@ def controller_hint(exc: DriverError, *, device_id: int, serial: bool, answered:
 
 
 def open_controller(url: str, *, word_order: str = "ABCD",
-                    timing: ControllerTiming = ControllerTiming()) -> InterferometerController:
+                    timing: ControllerTiming = DEFAULT_TIMING) -> InterferometerController:
     """Connect to the interferometer controller and read its status once (so a wrong address or
     device id is found before a run starts); a one-line :class:`UserError` if it does not answer."""
     try:
@@ -275,7 +275,7 @@ def open_controller(url: str, *, word_order: str = "ABCD",
 
 
 def open_controller_rig(controller_url: str, *, word_order: str = "ABCD", environment_url: str | None = None,
-                        timing: ControllerTiming = ControllerTiming()) -> Rig:
+                        timing: ControllerTiming = DEFAULT_TIMING) -> Rig:
     """A rig with the interferometer controller only (positioning runs), and the transmitter if given."""
     controller = open_controller(controller_url, word_order=word_order, timing=timing)
     try:

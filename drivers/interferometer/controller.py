@@ -18,7 +18,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from ..errors import CompletionTimeout, DeviceError, DriverError, ProtocolError, TransportTimeout
+from ..errors import CompletionTimeout, DeviceError, DriverError, ProtocolError, TransportTimeout, with_context
 from ..modbus_link import MODBUS_EXCEPTION_TEXT, ModbusLink, SerialSettings
 from ..readings import ControllerStatus, InterferometerReading
 from .codec import check_word_order, decode_block, decode_status
@@ -140,7 +140,8 @@ class InterferometerController:
 
     def _raise_if_error(self, st: ControllerStatus, what: str) -> None:
         if st.error:
-            raise DeviceError(st.error_code, st.error_text or "error flag set", command=what)
+            raise with_context(DeviceError(st.error_code, st.error_text or "error flag set", command=what),
+                               f"controller {self.endpoint}")
 
     def zero(self) -> ControllerStatus:
         """Set the datum at the current pose (all channels read 0 afterwards); waited for like a

@@ -48,7 +48,8 @@ def test_demo_with_a_beam_interruption_clears_it_and_repeats_the_capture(tmp_pat
     run = load_run(res.run_dir)
     assert run.meta["status"] == "complete"
     assert run.points["station"].tolist() == list(range(stations))  # every station once: the lost one repeated
-    assert run.meta["faults"] == [f"device reported error 1 to 'trigger': {BEAM}"]
+    endpoint = run.meta["instruments"]["interferometer"]["endpoint"]
+    assert run.meta["faults"] == [f"controller {endpoint}: device reported error 1 to 'trigger': {BEAM}"]
     text = out.getvalue()
     assert "error cleared, beam OK: repeating the step" in text and "paused" not in text
     # the repeated capture is as good as the others: noise off, the profile is the simulated surface
@@ -99,7 +100,7 @@ def test_a_beam_still_blocked_is_not_captured_the_run_waits_for_it(tmp_path: Pat
     # retry cleared the error again with the beam back
     assert len(op.fault_texts) == 1 and "could not be cleared" in op.fault_texts[0]
     assert "check the beam" in op.fault_texts[0]
-    assert run.meta["faults"][0] == f"device reported error 1 to 'trigger': {BEAM}"
+    assert run.meta["faults"][0] == f"controller {sim.controller_url}: device reported error 1 to 'trigger': {BEAM}"
     assert run.meta["faults"][1].startswith("controller error 1 (beam interrupted")
     assert len(run.meta["faults"]) == 2
 

@@ -63,7 +63,8 @@ def test_controller_error_is_shown_as_a_reading_and_is_not_a_pass(sim_rig, capsy
     sim_rig.world.beam_blocked = True
     code, lines, err = probe(capsys, "--controller", sim_rig.controller_url, "--count", "1")
     assert code == 3, err  # the device answered, but reports an error: exit 3, not 0
-    assert lines[1].startswith("#1 controller: device error: device reported error 1")
+    assert lines[1].startswith(f"#1 controller: device error: controller {sim_rig.controller_url}: device reported "
+                               "error 1 to 'trigger': beam interrupted")
     assert "error" in lines[2] and "beam-ok" not in lines[2]
     assert err.strip() == "guideway: 1 reading(s) with a device error: not a pass (exit 3)"
 
