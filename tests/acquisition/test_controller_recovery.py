@@ -122,8 +122,10 @@ def test_a_slow_controller_completes_the_run_with_its_set_up_keys(tmp_path: Path
 
 
 def test_a_deadline_shorter_than_the_measurement_fails_without_blaming_the_address(tmp_path: Path) -> None:
+    # 0.5 s per measurement against a 0.08 s deadline: far enough apart for a loaded machine
     setup = straightness(controller={"trigger_timeout_s": 0.08, "trigger_retries": 0})
-    res = run_straightness(setup, tmp_path / "run", simulate=SimOptions(seed=1, noise=False, faults=SLOW),
+    res = run_straightness(setup, tmp_path / "run",
+                           simulate=SimOptions(seed=1, noise=False, faults="controller:slow@1=0.5"),
                            auto=True, stream=io.StringIO())
     assert res.outcome.exit_status == "fail"
     assert "not completed within 0.08 s" in res.outcome.reason

@@ -38,6 +38,11 @@ def setup(stations: int, **auto: float) -> StraightnessSetup:
     return straightness_setup_from_dict(d, "setup.toml")
 
 
+# the end-to-end runs: the block must rest for 0.8 s, eight times the technician's 0.1 s steps, so that
+# a stall of a loaded machine does not pass a step for rest
+STILL = {"still_s": 0.8, "poll_s": 0.05}
+
+
 # -- the plan, scripted --------------------------------------------------------------------------------
 def ifm(t: float, x_mm: float) -> InterferometerReading:
     return InterferometerReading(x_mm, 0.0, 0.0, 0.0, 0.0, 0.0, 20.0, 1013.0, 45.0, 20.0, 1, OK, t)
@@ -98,7 +103,7 @@ def test_hands_free_run_captures_each_station_once_the_block_rests_there(tmp_pat
     tech.start()
     stream = io.StringIO()
     try:
-        res = run_straightness(with_devices(setup(stations), rig), out, auto=True, stream=stream)
+        res = run_straightness(with_devices(setup(stations, **STILL), rig), out, auto=True, stream=stream)
     finally:
         stop.set()
         tech.join(timeout=10)

@@ -228,7 +228,7 @@ def test_stability_trigger_run(tmp_path: Path) -> None:
     # a dwell long enough that a loaded CI machine still gets two readings half a dwell apart; readings
     # compensated by the controller, so a point's reading is the simulated axis position itself
     src = example(axis={"end_mm": 400.0, "runs": 1}, environment={"readings_compensated": True},
-                  trigger={"mode": "stability", "dwell_s": 0.25, "poll_s": 0.01, "timeout_s": 10.0})
+                  trigger={"mode": "stability", "dwell_s": 0.4, "poll_s": 0.01, "timeout_s": 10.0})
     s = positioning_setup_from_dict(src)
     res = run_positioning(s, tmp_path / "run", simulate=SimOptions(seed=3, noise=False), auto=True,
                           stream=io.StringIO())

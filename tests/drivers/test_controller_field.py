@@ -187,7 +187,8 @@ def test_a_retry_keeps_the_measurement_that_completed_late(transport: str) -> No
 
 @pytest.mark.parametrize("transport", TRANSPORTS)
 def test_without_retries_a_slow_controller_is_a_completion_timeout_not_a_dead_link(transport: str) -> None:
-    with slow(transport, SCALE, trigger_timeout_s=2.0 * SCALE, retries=0) as (_, ctl):
+    # a measurement far longer than the deadline, so that no stall of a loaded machine lets it complete first
+    with slow(transport, 5 * SCALE, trigger_timeout_s=2.0 * SCALE, retries=0) as (_, ctl):
         with pytest.raises(CompletionTimeout) as info:
             ctl.trigger_and_read()
         text = str(info.value)
