@@ -3,7 +3,9 @@
 Opens the devices (real endpoints from the set-up, or simulated ones on real
 transports with ``simulate``), picks the operator (plain terminal, or the
 automatic simulated technician), and runs the straightness plan with the run
-store subscribed.  ``resume`` continues an interrupted run in the same
+store subscribed.  ``auto`` with real devices is hands-free capture: the plan
+waits at each station until the interferometer shows the block there and
+still (set-up ``[auto]``), then captures.  ``resume`` continues an interrupted run in the same
 directory after its last completed step.  ``guideway demo`` is a thin call
 into :func:`run_straightness`.
 """
@@ -20,6 +22,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, TextIO
 
+from drivers.modbus_link import parse_modbus_url
+
 from . import inposition  # noqa: F401 - registers the in-position message handlers
 from .engine import RunEngine, RunOutcome
 from .errors import SetupError, UserError
@@ -31,7 +35,7 @@ from .positioning_setup import PositioningSetup, positioning_setup_from_dict
 from .rig import open_controller_rig, open_rig
 from .runstore import RunStore
 from .scenario import Scenario, load_scenario
-from .setup import DeviceSetup, StraightnessSetup, straightness_setup_from_run
+from .setup import StraightnessSetup, straightness_setup_from_run
 from .simulation import (
     REQUESTS_PER_SAMPLE,
     SimulatedMachine,
@@ -44,6 +48,18 @@ from .simulation import (
     start_simulated_rig,
     start_simulated_transmitter,
 )
+
+
+def _device_id(url: str) -> int:
+    """The Modbus device id a set-up's controller URL names (1 when it names none); the simulated
+    controller answers there, like the real one behind its gateway."""
+    if not url:
+        return 1
+    try:
+        device_id = parse_modbus_url(url).device_id
+    except ValueError as exc:
+        raise SetupError(f"[controller] url: {exc}") from None
+    return 1 if device_id is None else device_id
 
 
 def _simulated_transmitter(url: str, environment: Any, stream: TextIO,
@@ -208,10 +224,12 @@ def run_straightness(
     stream: TextIO = sys.stdout,
     stdin: TextIO = sys.stdin,
     operator: Operator | None = None,
+    hands_free: bool | None = None,
 ) -> AcquireResult:
     """Acquire (or resume) a straightness run into ``out``; progress goes to ``stream``.
 
-    ``operator`` overrides the operator chosen by ``auto`` (tests and the TUI).
+    ``operator`` overrides the operator chosen by ``auto`` (tests and the TUI).  ``hands_free``
+    (default: ``auto`` with real devices): wait at each station for the block instead of asking.
     """
     out = Path(out)
     store, setup, rp = _open_store(setup, out, resume)
@@ -230,11 +248,12 @@ def run_straightness(
                                       sensor=setup.devices.sensor_protocol, baudrate=setup.devices.sensor_baud,
                                       block_length_mm=setup.block_length_mm, geometry=setup.geometry,
                                       wire_time=simulate.wire_time, sensor_link=Path(link_dir) / "sensor",
-                                      scenario=scenario)
+                                      scenario=scenario, device_id=_device_id(setup.devices.controller_url))
             cleanup.callback(sim.close)
             transmitter = _simulated_transmitter(setup.devices.environment_url, sim.world, stream, cleanup)
-        devices = DeviceSetup(sim.sensor_protocol, sim.sensor_url, sim.sensor_baudrate, sim.controller_url,
-                              setup.devices.word_order, transmitter.url if transmitter is not None else "")
+        devices = replace(setup.devices, sensor_protocol=sim.sensor_protocol, sensor_url=sim.sensor_url,
+                          sensor_baud=sim.sensor_baudrate, controller_url=sim.controller_url,
+                          environment_url=transmitter.url if transmitter is not None else "")
         print(f"simulated sensor     : {sim.sensor_protocol} on {sim.sensor_url} (pty {sim.sensor_path()})",
               file=stream)
         own_sign = sensor_emulator(sim.sensor_protocol).sensor_sign
@@ -249,10 +268,18 @@ def run_straightness(
         if not devices.controller_url:
             raise SetupError("[controller] url is missing in the setup; give the controller's address "
                              "or use --simulate")
+    if hands_free is None:
+        hands_free = auto and simulate is None
+    if hands_free:
+        a = setup.auto
+        print(f"hands-free: at each station the tool waits up to {a.station_timeout_s:g} s for the block to rest "
+              f"at the station (|lin| <= {setup.validation.max_lin_um:g} um, still within {a.still_um:g} um for "
+              f"{a.still_s:g} s), then captures", file=stream)
     try:
         rig = open_rig(devices.sensor_protocol, devices.sensor_url, devices.controller_url,
                        baudrate=devices.sensor_baud, word_order=devices.word_order,
-                       environment_url=devices.environment_url or None)
+                       environment_url=devices.environment_url or None, timing=devices.timing,
+                       sensor_options=devices.sensor_options)
         try:
             _record_devices(store, rig, simulate, resumed=rp is not None)
             if sim is not None:
@@ -269,7 +296,7 @@ def run_straightness(
                                and int(r["station"]) == int(loaded[0]["station"]) + 1), None)
             live = LiveProfile(setup.geometry, show, first, first_step)
             engine = RunEngine(rig, operator, (store, live))
-            outcome = engine.run(straightness_plan(setup, {}, resume=rp))
+            outcome = engine.run(straightness_plan(setup, {}, resume=rp, hands_free=hands_free))
             if sim is not None:
                 _report_faults(store, sim.faults, stream)
         finally:
@@ -302,6 +329,14 @@ def live_deviation_printer(stream: TextIO, unit: str) -> Callable[[dict[str, Any
     return show
 
 
+def _check_hands_free(setup: PositioningSetup, auto: bool, simulate: SimOptions | None,
+                      operator: Operator | None) -> None:
+    """``--auto`` with real devices runs hands-free: not with a manual trigger (M00 at every target)."""
+    if auto and simulate is None and operator is None and setup.trigger.mode == "manual":
+        raise SetupError('--auto with [trigger] mode = "manual" needs someone to press Cycle Start at every '
+                         'target; use mode "in-position" or "stability" for a hands-free run, or leave out --auto')
+
+
 @_no_empty_run_dir
 def run_positioning(
     setup: PositioningSetup | None,
@@ -331,10 +366,12 @@ def run_positioning(
             if "setup_source" not in store.meta:
                 raise SetupError(f"{out}: run.json holds no setup_source; resume with --setup")
             setup = positioning_setup_from_dict(store.meta["setup_source"], f"{out}/run.json setup_source")
+        _check_hands_free(setup, auto, simulate, operator)
         rp = positioning_resume_point(store.meta, store.loaded_points, setup.measured_stops())
     else:
         if setup is None:
             raise SetupError("a new run needs --setup SETUP.toml")
+        _check_hands_free(setup, auto, simulate, operator)
         store = RunStore(out, {**setup.header(), **({"setup_source": setup_source} if setup_source else {})})
         store.prepare()
     if simulate is not None and resume and "simulation" in store.meta:
@@ -347,7 +384,8 @@ def run_positioning(
     if simulate is not None:
         with _closed_on_error(cleanup):
             sim = start_simulated_machine(setup, seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
-                                          start_at=rp.next_index if rp is not None else 0, scenario=scenario)
+                                          start_at=rp.next_index if rp is not None else 0, scenario=scenario,
+                                          device_id=_device_id(setup.devices.controller_url))
             cleanup.callback(sim.close)
             refuse_faults_that_cannot_fire(sim.faults, sensor=False)
             url = sim.controller_url
@@ -358,7 +396,8 @@ def run_positioning(
     elif not url:
         raise SetupError("[controller] url is missing in the setup; give the controller's address or use --simulate")
     try:
-        rig = open_controller_rig(url, word_order=setup.devices.word_order, environment_url=environment_url or None)
+        rig = open_controller_rig(url, word_order=setup.devices.word_order, environment_url=environment_url or None,
+                                  timing=setup.devices.timing)
         try:
             _record_devices(store, rig, simulate, resumed=rp is not None)
             actions = {"cycle_start": sim.cycle_start} if sim is not None else {}

@@ -19,6 +19,12 @@ device message runs also pauses the run: the operator is told what failed,
 fixes it and answers ``"retry"`` (the engine reconnects the rig and repeats the
 message) or ``"abort"`` (the run fails with the fault as its reason).
 
+A controller error that stays latched (the error flag, e.g. after a beam
+interruption: docs/modbus-map.md) is recovered first without asking: the
+engine clears it (command 5), checks that the beam is OK again and repeats the
+message, once per message; if the error cannot be cleared (the beam is still
+interrupted) the run pauses as above, and ``"retry"`` clears it again.
+
 Records go to subscribers as ``(name, document)`` pairs: ``start``, ``event``
 (one per record), ``annotate`` (run metadata), ``retract`` (a point withdrawn
 for a redo), ``state`` (every state change) and ``stop``.
@@ -34,7 +40,7 @@ from collections.abc import Callable, Generator
 from dataclasses import dataclass
 from typing import Any
 
-from drivers.errors import DriverError, with_context
+from drivers.errors import DeviceError, DriverError, with_context
 
 from .errors import UserError
 from .messages import (
@@ -193,8 +199,36 @@ class RunEngine:
             raise _AbortRun(f"operator aborted while paused ({reason})")
         self._transition(RunState.RUNNING, "resumed")
 
-    def _device_fault(self, exc: Exception) -> None:
-        """A device message failed: pause until the operator has fixed it and the rig reconnects."""
+    def _clear_latched(self) -> str:
+        """Clear a latched controller error (if any) and check the beam: "" when the controller is
+        ready, else why not (the fault to report)."""
+        try:
+            _, problem = self.rig.clear_latched_error()
+        except DriverError as exc:
+            return f"clearing the controller error failed: {exc}"
+        return problem
+
+    def _recover_latched(self, exc: DriverError) -> bool:
+        """A controller message failed with the controller's error flag set: clear it, check the
+        beam.  True when the message can be repeated (the fault is recorded either way)."""
+        if not isinstance(exc, DeviceError):
+            return False
+        try:
+            latched, problem = self.rig.clear_latched_error()
+        except DriverError:
+            return False  # the controller does not answer: the ordinary fault pause handles it
+        if not latched:
+            return False  # not a latched error (a Modbus exception, ...)
+        self._note_fault(str(exc))
+        if problem:
+            self._device_fault(problem, latched=True)  # returns once the operator's retry cleared it
+        else:
+            self.operator.log(Log(f"controller fault: {exc}; error cleared, beam OK: repeating the step"))
+        return True
+
+    def _device_fault(self, exc: Exception | str, *, latched: bool = False) -> None:
+        """A device message failed: pause until the operator has fixed it and the rig reconnects
+        (and, after a latched controller error, the error is cleared with the beam OK)."""
         fault = str(exc)
         self._note_fault(fault)
         self._transition(RunState.PAUSED, fault)
@@ -210,6 +244,10 @@ class RunEngine:
                 self.rig.reconnect()
             except (DriverError, UserError) as again:
                 fault = f"reconnection failed: {again}"
+                self._note_fault(fault)
+                continue
+            if latched and (problem := self._clear_latched()):
+                fault = problem
                 self._note_fault(fault)
                 continue
             self.operator.log(Log("devices reconnected; repeating the step"))
@@ -284,11 +322,15 @@ class RunEngine:
             raise TypeError(f"unknown plan message {msg!r}")
         if kind not in DEVICE_MESSAGES and kind not in EXTRA_DEVICE_MESSAGES:
             return handler(msg) if handler is not None else extra(self, msg)  # type: ignore[misc]
+        recovered = kind is ReadSensor  # latched-error recovery: controller messages, once per message
         while True:
             try:
                 return handler(msg) if handler is not None else extra(self, msg)  # type: ignore[misc]
             except DriverError as exc:
-                self._device_fault(exc)
+                if not recovered and self._recover_latched(exc):
+                    recovered = True
+                    continue
+                self._device_fault(exc, latched=kind is not ReadSensor and isinstance(exc, DeviceError))
 
     def run(self, plan: Plan) -> RunOutcome:
         """Execute ``plan`` to its end; return how it ended."""

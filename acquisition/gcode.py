@@ -8,9 +8,13 @@ trigger mode's hand-over:
 * ``in-position``: the PLC handshake of docs/modbus-map.md.  Fanuc: macro
   variables #500-#502 = target index, run, direction, then ``M100`` (a custom
   M-code whose ladder writes registers 200-204 and finishes (FIN) when the tool
-  acknowledges).  LinuxCNC: analog outputs 0-2 = index, run, direction
-  (``M68``), digital output 0 on (``M64 P0``), wait for digital input 0 high
-  (``M66 P0 L3``, the acknowledge), output off (``M65 P0``).
+  acknowledges, with UI000 = 1, or after its timer of ``[trigger] timeout_s``,
+  with UI000 = 0); then ``IF[#1000EQ0]THEN#3000=1(...)``: no acknowledge stops
+  the program with macro alarm 3001 and its message.  LinuxCNC: analog outputs
+  0-2 = index, run, direction (``M68``), digital output 0 on (``M64 P0``), wait
+  up to ``timeout_s`` for digital input 0 high (``M66 P0 L3 Q..``, the
+  acknowledge), output off (``M65 P0``); ``#5399`` is -1 when the wait timed
+  out, and the program then shows a message (``(MSG, ...)``) and ends (``M2``).
 * ``stability``: the dwell only.
 * ``manual``: ``M00`` (program stop): the operator captures, then presses Cycle Start.
 
@@ -23,6 +27,8 @@ from __future__ import annotations
 from .positioning_setup import PositioningSetup
 
 INPOS_MCODE = 100
+INPOS_ALARM = 1  # Fanuc macro alarm #3000 = 1: alarm 3001
+INPOS_ALARM_TEXT = "GUIDEWAY NO ACK"  # Fanuc alarm messages: at most 26 characters
 CYCLE_TITLES = {"linear": "standard test cycle", "step": "step cycle - Annex B"}
 
 
@@ -62,10 +68,15 @@ def part_program(setup: PositioningSetup) -> str:
         lines.append(dwell)
         if tr.mode == "in-position":
             if fanuc:
-                lines += [f"#500={s.target_index}", f"#501={s.run}", f"#502={s.direction}", f"M{INPOS_MCODE}"]
+                lines += [f"#500={s.target_index}", f"#501={s.run}", f"#502={s.direction}", f"M{INPOS_MCODE}",
+                          f"IF[#1000EQ0]THEN#3000={INPOS_ALARM}({INPOS_ALARM_TEXT})"]
             else:
+                # no comment on an O-word line, one O number per if-block (LinuxCNC O-code rules)
                 lines += [f"M68 E0 Q{s.target_index}", f"M68 E1 Q{s.run}", f"M68 E2 Q{s.direction}", "M64 P0",
-                          f"M66 P0 L3 Q{_num(tr.timeout_s, 1)}", "M65 P0"]
+                          f"M66 P0 L3 Q{_num(tr.timeout_s, 1)}", "M65 P0", f"o{k} if [#5399 LT 0]",
+                          f"(MSG, guideway: no acknowledge within {_num(tr.timeout_s, 1)} s at run {s.run} "
+                          f"{arrow} target {s.target_index}; program ended, check the tool and its Modbus link)",
+                          "M2", f"o{k} endif"]
         elif tr.mode == "manual":
             lines.append("M00")
     lines.append("M30" if fanuc else "M2")

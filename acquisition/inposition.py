@@ -22,13 +22,19 @@ IN_POSITION, RUNNING, DONE = 1, 2, 4
 
 @dataclass(frozen=True)
 class WaitInPosition:
-    """Wait until the PLC reports the axis in position at a target with a counter other than
-    ``last_count``; reply :class:`InPositionEvent`, or None after ``timeout_s`` (or when the
-    program has finished, or an abort was requested)."""
+    """Wait until the PLC reports a new in-position event: *in position* (b0) with a counter other
+    than ``last_count``, or b0 again after it was seen clear during the wait.  Reply
+    :class:`InPositionEvent`; one with ``cycle_done`` when the program has finished, one with
+    ``timed_out`` after ``timeout_s``; None when an abort was requested.
+
+    *Cycle finished* (b2) ends the wait only once it belongs to this cycle (``armed``): after the
+    tool has seen *cycle running* (b1) set or b2 clear, in this wait or an earlier one (the plan
+    passes the reply's ``armed`` on), so a b2 an earlier cycle left set does not end a new run."""
 
     last_count: int
     timeout_s: float
     poll_s: float = 0.002
+    armed: bool = False
 
 
 @dataclass(frozen=True)
@@ -38,6 +44,37 @@ class InPositionEvent:
     run: int
     direction: int
     cycle_done: bool = False
+    armed: bool = True  # b2 may be trusted from now on
+    timed_out: bool = False
+
+
+@dataclass(frozen=True)
+class InPositionState:
+    """Registers 200-204 as read: status bits, the event fields and the counter."""
+
+    status: int
+    target_index: int
+    run: int
+    direction: int
+    count: int
+
+    @property
+    def in_position(self) -> bool:
+        return bool(self.status & IN_POSITION)
+
+    @property
+    def running(self) -> bool:
+        return bool(self.status & RUNNING)
+
+    @property
+    def done(self) -> bool:
+        return bool(self.status & DONE)
+
+
+@dataclass(frozen=True)
+class ReadInPosition:
+    """Read registers 200-204 now (reply :class:`InPositionState`): before the cycle starts, the
+    bits an earlier cycle left set."""
 
 
 @dataclass(frozen=True)
@@ -52,26 +89,29 @@ class ReadAngle:
     """The rotary angle captured with the last trigger (deg, relative to the datum)."""
 
 
-def _read_inpos(engine: RunEngine) -> InPositionEvent | None:
+def read_in_position(engine: RunEngine, _msg: ReadInPosition | None = None) -> InPositionState:
     ctl: Any = engine.rig.controller
     start, count = ctl.map.span("inpos_status", "inpos_count")
     status, target, run, direction, n = ctl.read_registers(start, count)
-    d = int(decode_value([direction], "INT16"))
-    if status & IN_POSITION:
-        return InPositionEvent(n, target, run, d)
-    if status & DONE:
-        return InPositionEvent(n, 0, 0, 0, cycle_done=True)
-    return None
+    return InPositionState(status, target, run, int(decode_value([direction], "INT16")), n)
 
 
 def wait_in_position(engine: RunEngine, msg: WaitInPosition) -> InPositionEvent | None:
     deadline = time.monotonic() + msg.timeout_s
+    armed = msg.armed
+    seen_clear = False  # b0 seen clear in this wait: the next b0 is a new event whatever its counter
     while not engine.abort_requested:
-        ev = _read_inpos(engine)
-        if ev is not None and (ev.cycle_done or ev.count != msg.last_count):
-            return ev
+        st = read_in_position(engine)
+        armed = armed or st.running or not st.done
+        if st.in_position:
+            if st.count != msg.last_count or seen_clear:
+                return InPositionEvent(st.count, st.target_index, st.run, st.direction, armed=True)
+        else:
+            seen_clear = True
+            if armed and st.done and not st.running:
+                return InPositionEvent(st.count, 0, 0, 0, cycle_done=True)
         if time.monotonic() > deadline:
-            return None
+            return InPositionEvent(st.count, 0, 0, 0, armed=armed, timed_out=True)
         time.sleep(msg.poll_s)
     return None
 
@@ -88,5 +128,6 @@ def read_angle(engine: RunEngine, _msg: ReadAngle) -> float:
     return decode_value(ctl.read_registers(reg.address, reg.count), reg.type, ctl.word_order)
 
 
-EXTRA_HANDLERS.update({WaitInPosition: wait_in_position, AcknowledgeInPosition: acknowledge, ReadAngle: read_angle})
-EXTRA_DEVICE_MESSAGES.update({WaitInPosition, AcknowledgeInPosition, ReadAngle})
+EXTRA_HANDLERS.update({WaitInPosition: wait_in_position, AcknowledgeInPosition: acknowledge, ReadAngle: read_angle,
+                       ReadInPosition: read_in_position})
+EXTRA_DEVICE_MESSAGES.update({WaitInPosition, AcknowledgeInPosition, ReadAngle, ReadInPosition})

@@ -11,7 +11,7 @@ from processing.iso230_2 import LONG_AXIS_MM
 
 from .errors import SetupError
 from .iso230 import CYCLES, Stop, check_targets, cycle, linear_targets, rotary_targets
-from .setup import DeviceSetup, _Table, check_devices, read_toml, scenario_path
+from .setup import DeviceSetup, _Table, check_devices, controller_timing_keys, read_toml, scenario_path
 from .tolerance import positioning_tolerance
 
 TRIGGERS = ("in-position", "stability", "manual")
@@ -74,6 +74,12 @@ class SimulatedAxisSetup:
     humidity_pct: float = 45.0
     material_temp_c: float = 20.2
     drift_c_per_h: float = 0.05
+    plc_bits_left_set: bool = False  # the PLC left in position / cycle finished set from an earlier cycle
+    program_start_s: float = 0.0  # the program reaches its first block this long after Cycle Start
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.program_start_s) and self.program_start_s >= 0):
+            raise SetupError(f"[simulation] program_start_s must be a number >= 0, got {self.program_start_s}")
 
     def errors(self) -> tuple[float, ...]:
         """The error-model values (without the environment)."""
@@ -117,6 +123,34 @@ class PositioningSetup:
         if not (math.isfinite(self.feed_per_min) and self.feed_per_min > 0):
             raise SetupError(f"[axis] feed must be positive, got {self.feed_per_min}")
         self.stops()  # validates targets, runs and overrun
+        if self.trigger.mode == "stability" and (problem := self.stability_problem()):
+            raise SetupError(f"[trigger] mode = \"stability\" cannot follow this cycle: {problem}")
+
+    def stability_problem(self) -> str | None:
+        """Why the stability trigger cannot tell every stop of this cycle apart (one line), or None.
+
+        It polls the interferometer every ``poll_s`` (plus the controller's measurement time) and
+        must see (1) the axis leave each target's ``near`` window at every reversal, which takes
+        2 (overrun - near) / feed and must last two polls; (2) neighbouring targets' windows apart;
+        (3) two readings half a dwell apart inside the dwell, the first up to a poll after arrival.
+        """
+        u, tr = self.unit, self.trigger
+        if tr.near <= 0 or tr.stability_window <= 0 or tr.dwell_s <= 0 or tr.poll_s <= 0:
+            return f"dwell_s, poll_s, near_{u} and the stability window must all be positive"
+        beyond_s = 2 * (self.overrun - tr.near) / (self.feed_per_min / 60.0)
+        if beyond_s < 2 * tr.poll_s:
+            return (f"at each reversal the axis is beyond near_{u} = {tr.near:g} for {max(beyond_s, 0.0):.3g} s "
+                    f"(overrun_{u} {self.overrun:g} at feed {self.feed_per_min:g} {u}/min), shorter than two polls "
+                    f"(poll_s {tr.poll_s:g}): the direction change would go unseen; raise overrun_{u}, lower the "
+                    f"feed or poll_s")
+        gap = min(b - a for a, b in zip(self.targets, self.targets[1:], strict=False))
+        if gap <= 2 * tr.near:
+            return (f"targets {gap:g} {u} apart lie inside each other's near_{u} = {tr.near:g} windows; "
+                    f"lower near_{u} below {gap / 2:g}")
+        if tr.poll_s > tr.dwell_s / 4:
+            return (f"poll_s {tr.poll_s:g} s is too long for dwell_s {tr.dwell_s:g} s: a stable capture needs "
+                    f"readings half a dwell apart inside the dwell (poll_s <= dwell_s / 4)")
+        return None
 
     @property
     def unit(self) -> str:
@@ -216,13 +250,15 @@ def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> 
     ctl = top.table("controller")
     devices = DeviceSetup(sensor_url="", controller_url=ctl.get("url", str, ""),
                           word_order=ctl.get("word_order", str, "ABCD"),
-                          environment_url=top.table("transmitter").get("url", str, ""))
+                          environment_url=top.table("transmitter").get("url", str, ""),
+                          **controller_timing_keys(ctl))
     check_devices(devices, source, sensor=False)
     gc = top.table("gcode")
     dialect, program_number = gc.get("dialect", str, "fanuc"), gc.get("program_number", int, 1000)
     sim = top.table("simulation")
     s = SimulatedAxisSetup()
-    simulation = SimulatedAxisSetup(**{k: sim.get(k, float, getattr(s, k)) for k in asdict(s)})
+    simulation = SimulatedAxisSetup(**{k: sim.get(k, bool if isinstance(v, bool) else float, v)
+                                       for k, v in asdict(s).items()})
     tolerance = positioning_tolerance(top.table("tolerance").data, "arcsec" if axis_type == "rotary" else "um",
                                       source)
     scenario = scenario_path(sim.get("scenario", str, ""), source)

@@ -2,9 +2,11 @@
 about themselves and a few readings, as text lines.
 
 Used by ``guideway devices probe``.  A device that answers with an error
-reply (LK-G ``ER,...``, a latched controller error) has answered: the error is
-printed as its reading.  A device that does not answer properly (port missing,
-timeout, garbage, dropped link) raises a one-line :class:`UserError`.
+reply (LK-G ``ER,...``, a latched controller error, a Modbus exception) has
+answered: the error is printed as its reading and counted in
+:attr:`Probe.device_errors` (the command then exits 3: not a pass).  A device
+that does not answer properly (port missing, timeout, garbage, dropped link)
+raises a one-line :class:`UserError`.
 """
 
 from __future__ import annotations
@@ -15,13 +17,22 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 from drivers.environment.xymd02 import XYMD02
-from drivers.errors import ConnectionLost, DeviceError, DriverError, TransportTimeout
+from drivers.errors import DeviceError, DriverError
 from drivers.interferometer import InterferometerController
 from drivers.readings import ControllerStatus, DisplacementReading, InterferometerReading
 from drivers.sensor import DisplacementSensor
 
 from .errors import UserError
-from .rig import CONTROLLER_HINT, open_controller, open_environment, open_sensor
+from .rig import (
+    DEFAULT_SENSOR_OPTIONS,
+    DEFAULT_TIMING,
+    ControllerTiming,
+    SensorOptions,
+    controller_hint,
+    open_controller,
+    open_environment,
+    open_sensor,
+)
 
 
 def parse_sensor_spec(spec: str) -> tuple[str, str]:
@@ -38,13 +49,16 @@ def _identity(info: dict[str, str]) -> str:
 
 def sensor_identity(sensor: DisplacementSensor) -> str:
     """The sensor's identity line; for a command set without an identity query, says so
-    (the family named is what the driver speaks, not what answered)."""
+    (the family named is what the driver speaks, not what answered); the output read when the
+    controller has several."""
     info = sensor.identify()
+    output = getattr(sensor, "output", None)
+    read = {"output": str(output)} if isinstance(output, int) else {}
     if sensor.identity_query:
-        return _identity(info)
+        return _identity({**info, **read})
     family = info.pop("model", "")
     return _identity({"model": f"(not reported; protocol {sensor.protocol})",
-                      **({"commands": family} if family else {}), **info})
+                      **({"commands": family} if family else {}), **info, **read})
 
 
 def status_flags(st: ControllerStatus) -> str:
@@ -83,10 +97,17 @@ class Probe:
     controller_name: str = ""
     environment: XYMD02 | None = None
     environment_name: str = ""
+    device_errors: int = 0  # readings in which a device reported an error (not a pass)
+    controller_answered: bool = False
 
     def _fail(self, name: str, exc: DriverError) -> UserError:
-        hint = (f"; {CONTROLLER_HINT}" if name == self.controller_name
-                and isinstance(exc, (ConnectionLost, TransportTimeout)) else "")
+        hint = ""
+        if name == self.controller_name and self.controller is not None:
+            hint = "; " + controller_hint(exc, device_id=self.controller.device_id,
+                                          serial=self.controller.endpoint.startswith("modbus-rtu:"),
+                                          answered=self.controller_answered)
+            hint = hint.replace("[controller] trigger_timeout_s", "--trigger-timeout").replace(
+                "[controller] request_timeout_s", "--request-timeout")
         return UserError(f"{name} did not answer properly: {exc}{hint}")
 
     def identity_lines(self) -> list[str]:
@@ -103,6 +124,7 @@ class Probe:
                     self.controller.read_status()
             except DriverError as exc:
                 raise self._fail(self.controller_name, exc) from exc
+            self.controller_answered = True
             lines.append(f"{self.controller_name}: {_identity(info)}")
         if self.environment is not None:
             lines.append(f"{self.environment_name}: model=XY-MD02 (no identity query in its register map)")
@@ -116,19 +138,25 @@ class Probe:
                 text = format_sensor(self.sensor.read_once())
             except DeviceError as exc:
                 text = f"device error: {exc}"
+                self.device_errors += 1
             except DriverError as exc:
                 raise self._fail(self.sensor_name, exc) from exc
             lines.append(f"#{index} sensor: {text}")
         if self.controller is not None:
             try:
-                body = format_controller(self.controller.trigger_and_read())
+                reading = self.controller.trigger_and_read()
+                body = format_controller(reading)
+                if reading.status.error or not reading.status.beam_ok:
+                    self.device_errors += 1
             except DeviceError as exc:
+                self.device_errors += 1
                 try:
                     body = [f"device error: {exc}", status_flags(self.controller.read_status())]
                 except DriverError as exc2:
                     raise self._fail(self.controller_name, exc2) from exc2
             except DriverError as exc:
                 raise self._fail(self.controller_name, exc) from exc
+            self.controller_answered = True
             lines.append(f"#{index} controller: {body[0]}")
             lines += body[1:]
         if self.environment is not None:
@@ -136,6 +164,7 @@ class Probe:
                 env = self.environment.read_once()
             except DeviceError as exc:
                 lines.append(f"#{index} environment: device error: {exc}")
+                self.device_errors += 1
             except DriverError as exc:
                 raise self._fail(self.environment_name, exc) from exc
             else:
@@ -151,19 +180,21 @@ class Probe:
 
 @contextlib.contextmanager
 def open_probe(sensor: str | None, controller: str | None, *, baudrate: int | None = None,
-               environment: str | None = None) -> Iterator[Probe]:
-    """Open the given devices (``sensor`` as ``PROTOCOL:URL``, ``controller`` and ``environment``
-    (an XY-MD02 transmitter) as Modbus URLs)."""
+               environment: str | None = None, sensor_options: SensorOptions = DEFAULT_SENSOR_OPTIONS,
+               timing: ControllerTiming = DEFAULT_TIMING) -> Iterator[Probe]:
+    """Open the given devices (``sensor`` as ``PROTOCOL:URL`` with the output of ``sensor_options``,
+    ``controller`` (waited for as ``timing`` says) and ``environment`` (an XY-MD02 transmitter) as
+    Modbus URLs)."""
     if sensor is None and controller is None and environment is None:
         raise UserError("nothing to probe; give --sensor PROTOCOL:URL, --controller URL and/or --environment URL")
     probe = Probe(None, None)
     try:
         if sensor is not None:
             protocol, url = parse_sensor_spec(sensor)
-            probe.sensor = open_sensor(protocol, url, baudrate=baudrate)
+            probe.sensor = open_sensor(protocol, url, baudrate=baudrate, options=sensor_options)
             probe.sensor_name = f"sensor {protocol}:{url}"
         if controller is not None:
-            probe.controller = open_controller(controller)
+            probe.controller = open_controller(controller, timing=timing)
             probe.controller_name = f"controller {controller}"
         if environment is not None:
             probe.environment = open_environment(environment)

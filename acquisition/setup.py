@@ -13,10 +13,11 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from drivers.modbus_link import parse_modbus_url
 from processing.geometry import BlockGeometry, DatumAngles
 
 from .errors import SetupError
-from .rig import SENSOR_DRIVERS
+from .rig import SENSOR_DRIVERS, ControllerTiming, SensorOptions, sensor_options_problem
 from .tolerance import straightness_tolerance
 
 UNCERTAINTY_KEYS = ("sensor_noise_um", "sensor_resolution_um", "straightness_um", "angle_urad",
@@ -25,7 +26,8 @@ UNCERTAINTY_KEYS = ("sensor_noise_um", "sensor_resolution_um", "straightness_um"
 
 @dataclass(frozen=True)
 class DeviceSetup:
-    """Where the devices are: sensor protocol + pyserial URL, controller URL."""
+    """Where the devices are: sensor protocol + pyserial URL, controller URL; how the controller is
+    waited for (:class:`~acquisition.rig.ControllerTiming`) and which sensor output is read."""
 
     sensor_protocol: str = "keyence-lkg"
     sensor_url: str = ""
@@ -34,6 +36,21 @@ class DeviceSetup:
     word_order: str = "ABCD"
     # A separate XY-MD02 air temperature / humidity transmitter ("" = the controller's environment unit).
     environment_url: str = ""
+    sensor_series: str | None = None  # [sensor] series (keyence-lkg: LK-G3000 or LK-G5000); None: driver default
+    sensor_output: int | None = None  # [sensor] output number; None: driver default (1)
+    trigger_timeout_s: float = ControllerTiming.trigger_timeout_s
+    poll_interval_s: float = ControllerTiming.poll_interval_s
+    request_timeout_s: float = ControllerTiming.request_timeout_s
+    trigger_retries: int = ControllerTiming.trigger_retries
+
+    @property
+    def timing(self) -> ControllerTiming:
+        return ControllerTiming(self.trigger_timeout_s, self.poll_interval_s, self.request_timeout_s,
+                                self.trigger_retries)
+
+    @property
+    def sensor_options(self) -> SensorOptions:
+        return SensorOptions(self.sensor_series, self.sensor_output)
 
 
 @dataclass(frozen=True)
@@ -84,6 +101,29 @@ class ValidationSetup:
 
 
 @dataclass(frozen=True)
+class HandsFreeSetup:
+    """``[auto]``: ``guideway acquire --auto`` with real devices captures hands-free.  At each
+    station the tool polls the interferometer every ``poll_s`` until the block is at the station
+    (|lin| within ``[validation] max_lin_um``) and still (position, straightness Y and Z within
+    ``still_um`` peak to peak for ``still_s``), then captures; after ``station_timeout_s`` it asks
+    the operator (keep waiting, skip the station, abort)."""
+
+    station_timeout_s: float = 300.0
+    still_s: float = 2.0
+    still_um: float = 2.0
+    poll_s: float = 0.25
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
+                raise SetupError(f"[auto] {f.name} must be a positive number, got {v!r}")
+        if self.poll_s > self.still_s / 2:
+            raise SetupError(f"[auto] poll_s ({self.poll_s:g} s) must be at most half of still_s "
+                             f"({self.still_s:g} s): stillness needs at least three readings")
+
+
+@dataclass(frozen=True)
 class StraightnessSetup:
     """Everything a straightness run needs before it starts."""
 
@@ -96,6 +136,7 @@ class StraightnessSetup:
     warmup: WarmupSetup = field(default_factory=lambda: WarmupSetup(enabled=False))
     validation: ValidationSetup = field(default_factory=ValidationSetup)
     uncertainty: dict[str, float] = field(default_factory=dict)
+    auto: HandsFreeSetup = field(default_factory=HandsFreeSetup)
     machine: str = ""
     axis: str = ""
     operator: str = ""
@@ -137,6 +178,7 @@ class StraightnessSetup:
             "warmup": asdict(self.warmup),
             "validation": {**asdict(self.validation), "sensor_range_mm": list(self.validation.sensor_range_mm)},
             "devices": asdict(self.devices),
+            "auto": asdict(self.auto),
         }
         if self.uncertainty:
             out["uncertainty"] = dict(self.uncertainty)
@@ -154,16 +196,35 @@ CONTROLLER_SCHEMES = ("modbus-tcp://", "modbus-rtu:")
 
 
 def check_devices(devices: DeviceSetup, source: str, *, sensor: bool) -> None:
-    """Sensor protocol and controller URL scheme, before any port is opened."""
+    """Sensor protocol and options, controller URL (scheme, options, device id) and timing,
+    before any port is opened."""
     if sensor and devices.sensor_protocol not in SENSOR_DRIVERS:
         raise SetupError(f"{source}: [sensor] protocol {devices.sensor_protocol!r} is not supported; "
                          f"use one of: {', '.join(SENSOR_DRIVERS)}")
+    if sensor and (problem := sensor_options_problem(devices.sensor_protocol, devices.sensor_options)):
+        raise SetupError(f"{source}: [sensor] {problem}")
     if devices.controller_url and not devices.controller_url.startswith(CONTROLLER_SCHEMES):
         raise SetupError(f"{source}: [controller] url {devices.controller_url!r} must start with modbus-tcp:// "
                          "or modbus-rtu: (e.g. modbus-tcp://192.168.0.10:502)")
+    if devices.controller_url:
+        try:
+            parse_modbus_url(devices.controller_url)
+        except ValueError as exc:
+            raise SetupError(f"{source}: [controller] url: {exc}") from None
+    if problem := devices.timing.problem():
+        raise SetupError(f"{source}: [controller] {problem}")
     if devices.environment_url and not devices.environment_url.startswith(CONTROLLER_SCHEMES):
         raise SetupError(f"{source}: [transmitter] url {devices.environment_url!r} must start with modbus-rtu: "
                          "or modbus-tcp:// (e.g. modbus-rtu:/dev/ttyUSB2?baud=9600)")
+
+
+def controller_timing_keys(ctl: _Table) -> dict[str, Any]:
+    """The ``[controller]`` timing keys of a set-up table (defaults: :class:`ControllerTiming`)."""
+    d = ControllerTiming()
+    return {"trigger_timeout_s": ctl.get("trigger_timeout_s", float, d.trigger_timeout_s),
+            "poll_interval_s": ctl.get("poll_interval_s", float, d.poll_interval_s),
+            "request_timeout_s": ctl.get("request_timeout_s", float, d.request_timeout_s),
+            "trigger_retries": ctl.get("trigger_retries", int, d.trigger_retries)}
 
 
 # -- reading TOML ------------------------------------------------------------------------------
@@ -276,9 +337,12 @@ def straightness_setup_from_dict(data: dict[str, Any], source: str = "setup") ->
         sensor_protocol=sen.get("protocol", str, "keyence-lkg"),
         sensor_url=sen.get("port", str, ""),
         sensor_baud=sen.get("baud", int, None),
+        sensor_series=sen.get("series", str, None),
+        sensor_output=sen.get("output", int, None),
         controller_url=ctl.get("url", str, ""),
         word_order=ctl.get("word_order", str, "ABCD"),
         environment_url=top.table("transmitter").get("url", str, ""),
+        **controller_timing_keys(ctl),
     )
     if devices.word_order not in ("ABCD", "CDAB"):
         raise SetupError(f"{source}: [controller] word_order must be ABCD or CDAB, got {devices.word_order!r}")
@@ -311,12 +375,18 @@ def straightness_setup_from_dict(data: dict[str, Any], source: str = "setup") ->
     tolerance = straightness_tolerance(top.table("tolerance").data, source)
     sim = top.table("simulation")
     scenario = scenario_path(sim.get("scenario", str, ""), source)
-    for t in (top, blk, geo, sen, ctl, wu, va, sim):
+    au = top.table("auto")
+    a = HandsFreeSetup()
+    try:
+        auto = HandsFreeSetup(**{f.name: au.get(f.name, float, getattr(a, f.name)) for f in fields(a)})
+    except SetupError as exc:
+        raise SetupError(f"{source}: {exc}") from None
+    for t in (top, blk, geo, sen, ctl, wu, va, sim, au):
         t.check_unknown()
     return StraightnessSetup(
         block_length_mm=length, stations=stations, geometry=geometry, devices=devices,  # type: ignore[arg-type]
         samples_per_reading=samples, return_pass=return_pass, warmup=warmup, validation=validation,
-        uncertainty=uncertainty, tolerance=tolerance, scenario=scenario, **text,
+        uncertainty=uncertainty, tolerance=tolerance, scenario=scenario, auto=auto, **text,
     )
 
 
@@ -351,6 +421,7 @@ def straightness_setup_from_run(meta: dict[str, Any]) -> StraightnessSetup:
             validation=ValidationSetup(**val),
             uncertainty=dict(s.get("uncertainty", {})),
             tolerance=dict(s.get("tolerance", {})),
+            auto=HandsFreeSetup(**s.get("auto", {})),
             machine=meta.get("machine", ""), axis=meta.get("axis", ""),
             operator=meta.get("operator", ""), notes=meta.get("notes", ""),
         )

@@ -280,6 +280,7 @@ def start_simulated_rig(
     geometry: BlockGeometry | None = None,
     wire_time: bool = True,
     scenario: Scenario | None = None,
+    device_id: int = 1,
 ) -> SimulatedRig:
     """Start the emulators on real transports and return their endpoints.
 
@@ -295,7 +296,9 @@ def start_simulated_rig(
     set-up file (default: :func:`default_block`).  ``wire_time=False``: the
     sensor answers without the serial line's transfer time (zero-latency
     emulators, for benchmarks).  ``scenario``: a straightness scenario whose
-    effects, surface and noise the simulated world and sensor take on.
+    effects, surface and noise the simulated world and sensor take on.  ``device_id``: the Modbus
+    unit id the controller answers at (only there, like a controller behind a gateway); the
+    controller URL carries it.
     """
     if controller not in CONTROLLER_TRANSPORTS:
         raise UserError(f"controller transport {controller!r}: use one of {', '.join(CONTROLLER_TRANSPORTS)}")
@@ -339,10 +342,10 @@ def start_simulated_rig(
     try:
         emulator = InterferometerEmulator(world, measure_time_s=measure_time_s, faults=plan)
         if controller == "rtu-over-tcp":
-            modbus = ModbusServerThread(emulator.device(), port=modbus_port, framer=FramerType.RTU,
-                                        wire_faults=emulator.wire_faults)
+            modbus = start_controller(emulator, transport="tcp", framer=FramerType.RTU, port=modbus_port,
+                                      device_id=device_id)
         else:
-            modbus = start_controller(emulator, transport=controller, port=modbus_port)
+            modbus = start_controller(emulator, transport=controller, port=modbus_port, device_id=device_id)
     except BaseException as exc:
         if stream is not None:
             stream.stop()
@@ -350,7 +353,10 @@ def start_simulated_rig(
         if isinstance(exc, RuntimeError) and modbus_port:
             raise UserError(f"cannot serve Modbus on port {modbus_port} ({exc}); choose another --modbus-port") from exc
         raise
-    controller_url = f"modbus-rtu:socket://127.0.0.1:{modbus.port}" if controller == "rtu-over-tcp" else modbus.url
+    controller_url = modbus.url
+    if controller == "rtu-over-tcp":
+        controller_url = f"modbus-rtu:socket://127.0.0.1:{modbus.port}" + ("" if device_id == 1 else
+                                                                           f"?device_id={device_id}")
     sensor_url = str(sensor_link) if sensor_link is not None else pty.path
     return SimulatedRig(world, sensor, sensor_url, controller_url, pty, modbus, baud, plan, sensor_sign, stream,
                         sampling or contextlib.nullcontext())
@@ -406,13 +412,17 @@ def _optics(setup: PositioningSetup) -> LinearOptics:
 
 
 def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bool = True,
-                            faults: str | None = None, start_at: int = 0,
+                            faults: str | None = None, start_at: int = 0, device_id: int = 1,
                             scenario: Scenario | None = None) -> SimulatedMachine:
-    """Start a machine axis that runs exactly the set-up's cycle, read by a Modbus TCP controller.
+    """Start a machine axis that runs exactly the set-up's cycle, read by a Modbus TCP controller
+    (at unit id ``device_id``).
 
     The in-position handshake follows the trigger mode: the PLC waits for the tool's acknowledge
     (in-position), for Cycle Start (manual, M00 at each target) or for the dwell time (stability).
     ``start_at``: the program is restarted at the block of that measured stop (0-based; resume).
+    ``[simulation] plc_bits_left_set`` / ``program_start_s``: a PLC that left *in position* and
+    *cycle finished* set from an earlier cycle, and a program that reaches its first block that long
+    after Cycle Start (docs/modbus-map.md).
     ``scenario``: a positioning scenario replaces the set-up's ``[simulation]`` errors and conditions
     by its effects, conditions, angular motion and noise (its time-dependent effects run on the wall
     clock, as the run's ``time_s`` does).
@@ -427,14 +437,15 @@ def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bo
         model = {"errors": _axis_errors(setup, noise), "environment": _environment(setup.simulation)}
     axis = MachineAxis(stops, rotary=setup.axis_type == "rotary", feed_per_min=setup.feed_per_min,
                        dwell_s=setup.trigger.dwell_s, handshake=HANDSHAKE[setup.trigger.mode], datum=setup.datum,
-                       seed=seed, optics=_optics(setup), **model)
+                       seed=seed, optics=_optics(setup), bits_left_set=setup.simulation.plc_bits_left_set,
+                       program_start_s=setup.simulation.program_start_s, **model)
     emulator = InterferometerEmulator(axis, word_order=setup.devices.word_order, faults=plan,  # type: ignore[arg-type]
                                       extension=InPositionRegisters(axis, setup.devices.word_order))
     if start_at:
         measured = [k for k, s in enumerate(stops) if s.target_index]
         axis.index = measured[min(start_at, len(measured) - 1)] - 1  # restart: the next block is that target
         axis.commanded = stops[axis.index].position
-    modbus = ModbusServerThread(emulator.device())
+    modbus = start_controller(emulator, device_id=device_id)
     return SimulatedMachine(axis, modbus.url, modbus, plan)
 
 

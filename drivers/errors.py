@@ -29,6 +29,19 @@ class ConnectionLost(TransportError):
     """The port or connection was closed or could not be opened."""
 
 
+class CompletionTimeout(TransportTimeout):
+    """The device answers requests, but an operation it started (a measurement) did not complete
+    within the deadline: a slow device or a stuck one, not a wrong address or a broken link.
+
+    A :class:`TransportTimeout` so that callers retrying on timeouts keep doing so; callers that
+    hint at the cause tell it apart.  ``status``: the device's last status (driver-specific).
+    """
+
+    def __init__(self, *args: object, status: object = None) -> None:
+        super().__init__(*args)
+        self.status = status
+
+
 class ProtocolError(DriverError):
     """A reply arrived but is not a valid frame for the protocol."""
 
@@ -51,7 +64,7 @@ class DeviceError(DriverError):
 def with_context(exc: DriverError, context: str, hint: str = "") -> DriverError:
     """A copy of ``exc`` (same type and attributes) whose message starts with ``context``."""
     if isinstance(exc, DeviceError):
-        new: DriverError = DeviceError(exc.code, exc.text, command=exc.command)
+        new: DriverError = type(exc)(exc.code, exc.text, command=exc.command)
     else:
         new = type(exc)()
     new.args = (f"{context}: {exc}{hint}",)

@@ -19,10 +19,14 @@ here as one of:
 
 URLs:
 
-* ``modbus-tcp://HOST[:PORT]`` (port 502 by default);
-* ``modbus-rtu:PORT[?baud=19200&parity=E&stopbits=1]`` where PORT is a device
-  path or any pyserial URL; the defaults are the device's (8E1 is the Modbus
-  RTU specification's default framing).
+* ``modbus-tcp://HOST[:PORT][?device_id=N]`` (port 502 by default);
+* ``modbus-rtu:PORT[?baud=19200&parity=E&stopbits=1&device_id=N]`` where PORT is a
+  device path or any pyserial URL; the defaults are the device's (8E1 is the
+  Modbus RTU specification's default framing).
+
+``device_id`` is the unit id (Modbus TCP, 0-255: a device behind a TCP/RTU
+gateway is reached by its serial address) or the slave address (RTU, 1-247);
+default 1.  Any other option is refused with a message naming it.
 """
 
 from __future__ import annotations
@@ -31,7 +35,7 @@ import struct
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
-from urllib.parse import parse_qs, urlsplit
+from urllib.parse import parse_qsl, urlsplit
 
 from pymodbus import FramerType, ModbusException
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
@@ -80,12 +84,41 @@ def rtu_crc(frame: bytes) -> int:
     return crc
 
 
-def parse_rtu_settings(query: str, default: SerialSettings) -> SerialSettings:
-    """Serial settings from a URL query (``baud=9600&parity=N&stopbits=1``)."""
-    opts = {k: v[-1] for k, v in parse_qs(query).items()}
-    unknown = set(opts) - {"baud", "parity", "stopbits"}
+RTU_OPTIONS = ("baud", "parity", "stopbits", "device_id")
+TCP_OPTIONS = ("device_id",)
+#: Valid device ids: a TCP unit identifier is one byte; on a serial line 0 is broadcast and 248-255 are reserved.
+DEVICE_IDS = {"tcp": range(0, 256), "rtu": range(1, 248)}
+DEFAULT_DEVICE_ID = 1
+
+
+def _options(query: str, allowed: tuple[str, ...], kind: str) -> dict[str, str]:
+    """URL query options (the last of repeated keys wins); a ValueError naming unknown ones."""
+    opts = dict(parse_qsl(query, keep_blank_values=True))
+    unknown = set(opts) - set(allowed)
     if unknown:
-        raise ValueError(f"unknown Modbus RTU option(s) {', '.join(sorted(unknown))}; use baud, parity, stopbits")
+        raise ValueError(f"unknown Modbus {kind} option(s) {', '.join(sorted(unknown))}; use {', '.join(allowed)}")
+    return opts
+
+
+def _device_id(opts: dict[str, str], transport: str) -> int | None:
+    """``device_id`` from the URL options, checked against the transport's range; None when not given."""
+    if "device_id" not in opts:
+        return None
+    valid = DEVICE_IDS[transport]
+    try:
+        device_id = int(opts["device_id"])
+    except ValueError:
+        device_id = -1
+    if device_id not in valid:
+        raise ValueError(f"Modbus {transport.upper()} device_id {opts['device_id']!r} must be a whole number "
+                         f"{valid.start}..{valid.stop - 1}")
+    return device_id
+
+
+def parse_rtu_settings(query: str, default: SerialSettings) -> SerialSettings:
+    """Serial settings from a URL query (``baud=9600&parity=N&stopbits=1``; ``device_id`` is accepted and
+    left to :func:`parse_modbus_url`)."""
+    opts = _options(query, RTU_OPTIONS, "RTU")
     try:
         baud = int(opts.get("baud", default.baudrate))
         stopbits = int(opts.get("stopbits", default.stopbits))
@@ -101,40 +134,75 @@ def parse_rtu_settings(query: str, default: SerialSettings) -> SerialSettings:
     return SerialSettings(baud, parity, stopbits)
 
 
-class ModbusLink:
-    """One Modbus device (``device_id``) on a pymodbus sync client."""
+@dataclass(frozen=True, slots=True)
+class ModbusEndpoint:
+    """A parsed Modbus URL: TCP host and port, or RTU serial port and line settings; the device id it names."""
 
-    def __init__(self, url: str, *, timeout_s: float = 1.0, device_id: int = 1,
+    transport: str  # "tcp" or "rtu"
+    host: str = ""
+    port: int = 502
+    serial_port: str = ""
+    serial: SerialSettings | None = None
+    device_id: int | None = None  # None: the URL does not say (the caller's default, 1)
+
+
+def parse_modbus_url(url: str, rtu_default: SerialSettings = SerialSettings()) -> ModbusEndpoint:
+    """Parse ``modbus-tcp://HOST[:PORT][?device_id=N]`` or ``modbus-rtu:PORT[?baud=..&parity=..&stopbits=..
+    &device_id=N]``; a one-line ValueError naming what is wrong."""
+    if url.startswith("modbus-tcp://"):
+        parts = urlsplit(url)
+        try:
+            port = parts.port or 502
+        except ValueError:
+            raise ValueError(f"Modbus URL {url!r} has a bad port; use modbus-tcp://HOST:PORT (1-65535)") from None
+        if not parts.hostname:
+            raise ValueError(f"Modbus URL {url!r} has no host; use modbus-tcp://HOST:PORT")
+        if parts.path not in ("", "/") or parts.fragment:
+            raise ValueError(f"Modbus URL {url!r}: nothing may follow HOST:PORT except ?device_id=N")
+        opts = _options(parts.query, TCP_OPTIONS, "TCP")
+        return ModbusEndpoint("tcp", host=parts.hostname, port=port, device_id=_device_id(opts, "tcp"))
+    if url.startswith("modbus-rtu:"):
+        port_name, _, query = url.removeprefix("modbus-rtu:").partition("?")
+        if not port_name:
+            raise ValueError(f"Modbus URL {url!r} has no serial port; use modbus-rtu:/dev/ttyUSB0?baud=19200")
+        serial = parse_rtu_settings(query, rtu_default)
+        return ModbusEndpoint("rtu", serial_port=port_name, serial=serial,
+                              device_id=_device_id(_options(query, RTU_OPTIONS, "RTU"), "rtu"))
+    raise ValueError(
+        f"Modbus URL {url!r} must start with modbus-tcp:// or modbus-rtu: "
+        "(e.g. modbus-tcp://192.168.0.10:502 or modbus-rtu:/dev/ttyUSB0?baud=19200&parity=E)"
+    )
+
+
+class ModbusLink:
+    """One Modbus device (``device_id``) on a pymodbus sync client.
+
+    The device id comes from the URL's ``device_id=`` option, else from ``device_id``, else 1;
+    both given and different is a ValueError.
+    """
+
+    def __init__(self, url: str, *, timeout_s: float = 1.0, device_id: int | None = None,
                  rtu_default: SerialSettings = SerialSettings(), name: str = "Modbus device") -> None:
         self.url = url
         self.name = name
-        self.device_id = device_id
         self.timeout_s = timeout_s
-        self.serial: SerialSettings | None = None
         self._rx = b""  # last receive buffer pymodbus saw during the current request
-        if url.startswith("modbus-tcp://"):
-            parts = urlsplit(url)
-            if not parts.hostname:
-                raise ValueError(f"Modbus URL {url!r} has no host; use modbus-tcp://HOST:PORT")
-            self.peer: str | None = f"{parts.hostname}:{parts.port or 502}"
+        ep = parse_modbus_url(url, rtu_default)
+        if ep.device_id is not None and device_id is not None and ep.device_id != device_id:
+            raise ValueError(f"Modbus URL {url!r} names device_id={ep.device_id} but device id {device_id} "
+                             "was asked for; give it once")
+        self.device_id = next((d for d in (ep.device_id, device_id) if d is not None), DEFAULT_DEVICE_ID)
+        self.serial: SerialSettings | None = ep.serial
+        if ep.serial is None:
+            self.peer: str | None = f"{ep.host}:{ep.port}"
             self.client: ModbusTcpClient | ModbusSerialClient = ModbusTcpClient(
-                parts.hostname, port=parts.port or 502, timeout=timeout_s, retries=0,
-                trace_packet=self._trace)
-        elif url.startswith("modbus-rtu:"):
-            port, _, query = url.removeprefix("modbus-rtu:").partition("?")
-            if not port:
-                raise ValueError(f"Modbus URL {url!r} has no serial port; use modbus-rtu:/dev/ttyUSB0?baud=19200")
-            self.serial = parse_rtu_settings(query, rtu_default)
+                ep.host, port=ep.port, timeout=timeout_s, retries=0, trace_packet=self._trace)
+        else:
             self.peer = None  # a serial line: no connection to refuse or close
             self.client = ModbusSerialClient(
-                port, framer=FramerType.RTU, baudrate=self.serial.baudrate, parity=self.serial.parity,
-                stopbits=self.serial.stopbits, bytesize=8, timeout=timeout_s, retries=0,
+                ep.serial_port, framer=FramerType.RTU, baudrate=ep.serial.baudrate, parity=ep.serial.parity,
+                stopbits=ep.serial.stopbits, bytesize=8, timeout=timeout_s, retries=0,
                 trace_packet=self._trace)
-        else:
-            raise ValueError(
-                f"Modbus URL {url!r} must start with modbus-tcp:// or modbus-rtu: "
-                "(e.g. modbus-tcp://192.168.0.10:502 or modbus-rtu:/dev/ttyUSB0?baud=19200&parity=E)"
-            )
 
     def connect(self) -> None:
         """Open the connection; :class:`ConnectionLost` if that fails."""
@@ -182,7 +250,8 @@ class ModbusLink:
         except ModbusIOException as exc:
             if self._rx:
                 raise self._garbled(what) from exc
-            raise TransportTimeout(f"{self.name} {self.url}: {what}: no response within {self.timeout_s} s") from exc
+            raise TransportTimeout(f"{self.name} {self.url}: {what}: no response within {self.timeout_s} s "
+                                   f"(device id {self.device_id})") from exc
         except ModbusException as exc:
             raise ProtocolError(f"{self.name} {self.url}: {what}: {exc}") from exc
         except OSError as exc:

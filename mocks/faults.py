@@ -29,9 +29,12 @@ the spec applies.  Kinds:
   the COUNT faulted requests closes the link again, after them the device
   answers normally.
 * controller: ``freeze-seq`` (sequence counter stops), ``beam-loss``
-  (measurement ends with error 1, beam interrupted), ``exception`` (Modbus
-  exception code ARG, default 4 device failure), ``delay`` (reply ARG seconds
-  late).
+  (the beam is interrupted for COUNT requests, default 1 - someone walking
+  through it: error 1 is set at once and stays latched until *clear error*,
+  a measurement running meanwhile fails), ``exception`` (Modbus exception
+  code ARG, default 4 device failure), ``delay`` (reply ARG seconds late),
+  ``slow`` (a measurement triggered while active takes ARG seconds, default
+  2.5: a slow controller).
 
 Contract for emulators: call :meth:`FaultPlan.next_request` exactly once per
 request (command line / frame) and act on the sensor kinds above except
@@ -50,8 +53,10 @@ from dataclasses import dataclass
 PORT_KINDS = frozenset({"close"})
 KINDS = {
     "sensor": {"garbage", "drop", "delay", "error", "corrupt", "close"},
-    "controller": {"freeze-seq", "beam-loss", "exception", "delay", "drop", "corrupt", "close"},
+    "controller": {"freeze-seq", "beam-loss", "exception", "delay", "drop", "corrupt", "close", "slow"},
 }
+# Kinds that are an event rather than a state: without xCOUNT they last this many requests.
+DEFAULT_COUNT = {"beam-loss": 1}
 _SPEC = re.compile(r"^(?P<dev>[a-z]+):(?P<kind>[a-z-]+)@(?P<at>\d+)(?:x(?P<count>\d+))?(?:=(?P<arg>[^,]+))?$")
 
 
@@ -103,7 +108,8 @@ class FaultPlan:
             at = int(m["at"])
             if at < 1:
                 raise FaultSpecError(f"fault {part!r}: N counts requests from 1")
-            faults.append(Fault(dev, kind, at, int(m["count"]) if m["count"] else None, m["arg"]))
+            count = int(m["count"]) if m["count"] else DEFAULT_COUNT.get(kind)
+            faults.append(Fault(dev, kind, at, count, m["arg"]))
         return cls(tuple(faults))
 
     def next_request(self, device: str) -> Fault | None:

@@ -14,9 +14,22 @@ adds SimData blocks, sees every command code before the built-in ones and
 fills / reacts to its registers on every access.  :func:`start_controller` serves the emulator over Modbus TCP or
 RTU (pty) and returns the running server (``.url``, ``.stop()``).
 
+Beam and errors, as on the real controller: while the beam is interrupted
+(``World.beam_blocked``, or a ``beam-loss`` fault) *beam OK* is clear and
+error 1 is set at once and stays latched until *clear error* (command 5); a
+measurement that completes with the error set fails (no *data valid*), and a
+trigger or zero is ignored while it is set.  Clearing while the beam is still
+interrupted latches the error again.
+
 Controller faults (:mod:`mocks.faults`): ``freeze-seq``, ``beam-loss``,
-``exception``, ``delay`` act on the register level here; ``drop``,
+``exception``, ``delay``, ``slow`` act on the register level here; ``drop``,
 ``corrupt`` and ``close`` act on the reply frame (:class:`~mocks.modbus_server.WireFaults`).
+``slow=S``: a measurement triggered while the fault is active takes S seconds
+(``measure_time_s`` otherwise).
+
+Identity (function 43/14): :func:`identity` with ``identity_access`` (see
+:class:`~mocks.modbus_server.DeviceIdentity`; default ``category``: the basic read
+code gives vendor, product code and revision, the regular one product and model).
 """
 
 from __future__ import annotations
@@ -27,15 +40,17 @@ import time
 from collections.abc import Callable
 from typing import Protocol
 
+from pymodbus import FramerType
 from pymodbus.constants import ExcCodes
 from pymodbus.pdu.device import ModbusDeviceIdentification
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from .faults import FaultPlan
-from .modbus_server import WIRE_KINDS, ModbusServerThread, WireFaults
+from .modbus_server import WIRE_KINDS, DeviceIdentity, ModbusServerThread, WireFaults
 from .world import World
 
-__all__ = ["InterferometerEmulator", "ModbusServerThread", "float_registers", "identity", "start_controller"]
+__all__ = ["DeviceIdentity", "InterferometerEmulator", "ModbusServerThread", "float_registers", "identity",
+           "start_controller"]
 
 
 
@@ -61,6 +76,7 @@ REG_ENV = 120  # 4 x FLOAT32: air temp C, pressure hPa, humidity %RH, material t
 DATA_END = 128
 
 CMD_TRIGGER, CMD_ZERO, CMD_CLEAR = 1, 4, 5
+SLOW_DEFAULT_S = 2.5  # a ``slow`` fault without an argument: seconds per measurement
 ST_READY, ST_BUSY, ST_VALID, ST_ERROR, ST_BEAM = 1, 2, 4, 8, 16
 ERR_BEAM, ERR_BUSY = 1, 5
 
@@ -88,13 +104,16 @@ class InterferometerEmulator:
         clock: Callable[[], float] = time.monotonic,
         faults: FaultPlan | None = None,
         extension: EmulatorExtension | None = None,
+        identity_access: str = "category",
     ) -> None:
         self.world = world
         self.extension = extension
         self.faults = faults or FaultPlan()
         self.wire_faults = WireFaults()
+        self.identity = DeviceIdentity.from_pymodbus(identity(), identity_access)
         self._frozen = False
         self._beam_fault = False
+        self._slow_s: float | None = None
         self.word_order = word_order
         self.measure_time_s = measure_time_s
         self._clock = clock
@@ -115,20 +134,29 @@ class InterferometerEmulator:
                         datatype=DataType.REGISTERS, readonly=True),
                 *(self.extension.simdata() if self.extension is not None else []),
             ],
-            identity=identity(),
             action=self.action,
         )
 
     # -- state machine -------------------------------------------------------------------
+    def _beam_ok(self) -> bool:
+        return not (self.world.beam_blocked or self._beam_fault)
+
+    def _check_beam(self) -> None:
+        """*beam OK* follows the beam; an interruption latches error 1 at once."""
+        if self._beam_ok():
+            self.status |= ST_BEAM
+        else:
+            self.error_code = ERR_BEAM
+            self.status = (self.status | ST_ERROR) & ~ST_BEAM
+
     def _complete(self, kind: int) -> None:
         w = self.world
-        beam_ok = not (w.beam_blocked or self._beam_fault)
-        if kind == CMD_ZERO:
-            w.set_datum()
-        if not beam_ok:
-            self.error_code = ERR_BEAM
-            self.status = ST_READY | ST_ERROR
+        self._check_beam()
+        if self.status & ST_ERROR:  # the measurement failed (error latched meanwhile)
+            self.status = (self.status | ST_READY) & ~(ST_BUSY | ST_VALID)
         else:
+            if kind == CMD_ZERO:
+                w.set_datum()
             c = w.capture()
             env = w.environment_now()
             regs = float_registers(c.position_mm, ">d", self.word_order)
@@ -163,12 +191,14 @@ class InterferometerEmulator:
             if self.status & ST_ERROR:
                 return None  # the error stays latched until cleared
             self.status = (self.status | ST_BUSY) & ~ST_VALID
-            self._pending = (cmd, self._clock() + self.measure_time_s)
+            took = self.measure_time_s if self._slow_s is None else self._slow_s
+            self._pending = (cmd, self._clock() + took)
             self._advance()
             return None
         if cmd == CMD_CLEAR:
             self.error_code = 0
-            self.status = (self.status & ~ST_ERROR) | (0 if self.world.beam_blocked else ST_BEAM)
+            self.status &= ~ST_ERROR
+            self._check_beam()  # still interrupted: latched again
             return None
         return ExcCodes.ILLEGAL_VALUE
 
@@ -191,6 +221,8 @@ class InterferometerEmulator:
         fault = self.faults.next_request("controller")
         self._frozen = fault is not None and fault.kind == "freeze-seq"
         self._beam_fault = fault is not None and fault.kind == "beam-loss"
+        self._slow_s = float(fault.arg or SLOW_DEFAULT_S) if fault is not None and fault.kind == "slow" else None
+        self._check_beam()
         if fault is not None and fault.kind == "exception":
             return ExcCodes(int(fault.arg or 4))
         if fault is not None and fault.kind == "delay":
@@ -227,10 +259,14 @@ def start_controller(
     device_id: int = 1,
     baudrate: int = 115200,
     port: int = 0,
+    framer: FramerType | None = None,
 ) -> ModbusServerThread:
-    """Serve ``emulator`` over Modbus TCP (127.0.0.1) or RTU (pty bridge) and return the running server.
+    """Serve ``emulator`` over Modbus TCP (127.0.0.1) or RTU (pty bridge) at unit id ``device_id``
+    (only there) and return the running server.
 
-    Its ``url`` is what the driver opens (``modbus-tcp://...`` or ``modbus-rtu:/dev/pts/N?...``).
+    Its ``url`` is what the driver opens (``modbus-tcp://...`` or ``modbus-rtu:/dev/pts/N?...``, with
+    ``device_id=`` when it is not 1).  ``framer=FramerType.RTU`` with ``transport="tcp"``: RTU frames
+    over TCP (``modbus-rtu:socket://...``).
     """
     return ModbusServerThread(emulator.device(device_id), transport=transport, baudrate=baudrate, port=port,
-                              wire_faults=emulator.wire_faults)
+                              framer=framer, identity=emulator.identity, wire_faults=emulator.wire_faults)

@@ -14,6 +14,15 @@ counter; what releases it depends on the program the machine runs:
 * ``handshake="timed"`` (stability trigger, plain dwell): the axis stays
   ``dwell_s`` of wall-clock time at each target, then moves on.
 
+The PLC's status bits (docs/modbus-map.md): *cycle running* (b1) is set when
+the program starts and cleared at its end, when *cycle finished* (b2) is set;
+b2 stays set until the next program start.  Real PLCs also leave bits from an
+earlier cycle: ``bits_left_set`` starts the axis with *in position* (b0, at
+the cycle's last stop, counter 57) and *cycle finished* set, both cleared when
+the program starts; ``program_start_s`` is how long after Cycle Start the
+program starts (b1 set, b0/b2 cleared).  An acknowledge before the program
+runs is ignored.
+
 Motion itself takes no simulated time; machine time advances by move time at
 the feed rate plus the dwell at each stop, so thermal drift depends on the
 cycle, not on how fast the test runs.  Actual position at rest::
@@ -149,6 +158,8 @@ class MachineAxis:
     # wall-clock time since the axis was built with ``wall_clock_effects`` (behind the real transports)
     effects: AxisEffects | None = None
     wall_clock_effects: bool = False
+    bits_left_set: bool = False
+    program_start_s: float = 0.0
 
     def __post_init__(self) -> None:
         if self.handshake not in ("ack", "cycle-start", "timed"):
@@ -159,10 +170,11 @@ class MachineAxis:
         self.index = -1  # the stop the axis is at; -1 = at the datum, program not started
         self.commanded = self.datum
         self.machine_time_s = 0.0
-        self.in_position = False
-        self.count = 0
+        self.in_position = self.bits_left_set  # at the last stop of an earlier cycle (index -1 = stops[-1])
+        self.count = 57 if self.bits_left_set else 0
         self.running = False
-        self.done = False
+        self.done = self.bits_left_set
+        self._start_at: float | None = None  # Cycle Start pressed, the program not started yet
         self._datum_actual = self.datum
         self.last_angle_deg = 0.0
         self._arrived = 0.0
@@ -221,26 +233,36 @@ class MachineAxis:
         self.done = True
 
     def cycle_start(self, **_: object) -> None:
-        """Cycle Start: start the program, or continue from an M00 stop."""
+        """Cycle Start: start the program (after ``program_start_s``), or continue from an M00 stop."""
         with self._lock:
-            if self.done:
-                return
-            self.running = True
-            self.in_position = False
-            self._advance()
+            if self.running:
+                self.in_position = False
+                self._advance()
+            elif self._start_at is None and self.index + 1 < len(self.stops):
+                self._start_at = time.monotonic() + self.program_start_s
+                self._start_program()
+
+    def _start_program(self) -> None:
+        """The program starts once ``program_start_s`` has passed: b1 set, bits of an earlier cycle cleared."""
+        if self._start_at is None or time.monotonic() < self._start_at:
+            return
+        self._start_at = None
+        self.running, self.done, self.in_position = True, False, False
+        self._advance()
 
     def tick(self) -> None:
         """Timed dwell: leave the target once ``dwell_s`` has passed (called on every access)."""
         with self._lock:
+            self._start_program()
             resting = self.in_position or self._at_overrun
             if self.handshake == "timed" and resting and time.monotonic() - self._arrived >= self.dwell_s:
                 self.in_position = self._at_overrun = False
                 self._advance()
 
     def acknowledge(self, value: int) -> None:
-        """The tool wrote ``value`` to the acknowledge register."""
+        """The tool wrote ``value`` to the acknowledge register (ignored before the program runs)."""
         with self._lock:
-            if self.handshake == "ack" and self.in_position and value == self.count:
+            if self.handshake == "ack" and self.running and self.in_position and value == self.count:
                 self.in_position = False
                 self._advance()
 

@@ -318,12 +318,13 @@ class World:
     def nominal_x_mm(self, station: int) -> float:
         return station * self.block.length_mm
 
-    def place_block(self, station: int) -> None:
-        """The simulated technician puts the block at ``station`` (with placement scatter)."""
+    def place_block(self, station: int, offset_mm: float = 0.0) -> None:
+        """The simulated technician puts the block at ``station`` (with placement scatter);
+        ``offset_mm``: still ``offset_mm`` short of it (sliding it there)."""
         with self._lock:
             err_mm = self._rng.normal(0.0, self.noise.placement_um) * 1e-3 if self.noise.placement_um else 0.0
             self.station = station
-            self._pose = self.solve_pose(self.nominal_x_mm(station) + err_mm)
+            self._pose = self.solve_pose(self.nominal_x_mm(station) + err_mm + offset_mm)
 
     def set_datum(self) -> None:
         """Zero the interferometer at the current pose."""

@@ -148,3 +148,11 @@ def test_modbus_port_in_use_one_line_exit_2() -> None:
         one_line_error(guideway("sim", "serve", "--modbus-port", str(port)), f"port {port}", "--modbus-port")
     # a server that never ran leaves Ctrl-C and SIGTERM as they were
     assert {sig: signal.getsignal(sig) for sig in handlers} == handlers
+
+
+def test_a_device_id_outside_the_serial_range_is_refused_before_anything_starts(capsys) -> None:
+    from tui.cli import main
+
+    assert main(["sim", "serve", "--device-id", "300"]) == 2
+    err = capsys.readouterr().err
+    assert err == "guideway: error: --device-id 300 must be 1..247 (a Modbus serial address)\n"

@@ -9,7 +9,9 @@
      (registers 200-204); the tool triggers, records and acknowledges;
    * ``stability``: the interferometer position stays within the stability
      window near the target for half the programmed dwell (polled triggered
-     captures, so the capture falls inside the dwell);
+     captures, so the capture falls inside the dwell), after the axis came
+     there along the cycle's path (:class:`ApproachTracker`: a reading is never
+     attached to another stop of the same target, or to a stop it missed);
    * ``manual``: the operator presses Cycle Start (M00 at each target) and
      confirms when the axis has stopped.
 
@@ -28,7 +30,7 @@ from typing import Any
 
 from drivers.readings import InterferometerReading
 
-from ..inposition import AcknowledgeInPosition, ReadAngle, WaitInPosition
+from ..inposition import AcknowledgeInPosition, InPositionState, ReadAngle, ReadInPosition, WaitInPosition
 from ..iso230 import Stop
 from ..messages import (
     Annotate,
@@ -89,16 +91,111 @@ def reading_problem(ifm: InterferometerReading, reading: float, s: Stop, setup: 
     return None
 
 
-def _stable_capture(setup: PositioningSetup, s: Stop
-                    ) -> Generator[Message, Any, tuple[InterferometerReading, float] | None]:
-    """Poll until the position stays within the window for the dwell time near the target."""
+SIDE_WORDS = {-1: "below", 1: "above"}
+
+
+def _sides(positions: list[float], target: float, near: float) -> list[int]:
+    """The sides of the window [target - near, target + near] the positions lie on, in order,
+    repeats merged (-1 below, +1 above; positions inside the window leave no mark)."""
+    out: list[int] = []
+    for p in positions:
+        side = -1 if p < target - near else 1 if p > target + near else 0
+        if side and (not out or out[-1] != side):
+            out.append(side)
+    return out
+
+
+class ApproachTracker:
+    """Stability trigger: which stop of the cycle a still reading belongs to.
+
+    Between the last capture (or the datum) and the next measured stop the axis follows the
+    cycle's path through the stops in between (overruns, stops skipped).  Seen from the window
+    [target - near, target + near] of the stop expected next, that path lies on a sequence of
+    sides (below, above; repeats merged): the last one is the approach direction.  The readings
+    polled since the last capture must show exactly that sequence before a still reading inside
+    the window is that stop (state ``ready``); a prefix of it means the axis is still on its way
+    (``wait``, e.g. still dwelling at the previous stop of the same target); anything else means
+    it went where the cycle does not (a missed stop: ``mismatch``).  A resumed run has no known
+    start: there the last side seen must be the approach side.
+    """
+
+    def __init__(self, setup: PositioningSetup, *, resumed: bool = False) -> None:
+        self.stops = setup.stops()
+        self.measured = [j for j, st in enumerate(self.stops) if st.target_index]
+        self.near = setup.trigger.near
+        self.anchor: int | None = None if resumed else -1  # stop index of the last capture; -1 the datum
+        self.anchor_pos = setup.datum
+        self.positions: list[float] = []  # valid readings since the last capture
+        self._cache: tuple[int, int, list[int]] = (-1, 0, [])
+
+    def expected(self, i: int) -> list[int]:
+        """Sides the path from the last capture to measured stop ``i`` leaves."""
+        s = self.stops[self.measured[i]]
+        if self.anchor is None:
+            return [-s.direction]
+        path = [self.anchor_pos] + [st.position for st in self.stops[self.anchor + 1:self.measured[i]]]
+        return _sides(path, s.position, self.near)
+
+    def observed(self, i: int) -> list[int]:
+        """Sides of the window of measured stop ``i`` the readings since the last capture lay on."""
+        key, n, obs = self._cache
+        if key != i:
+            n, obs = 0, []
+        target = self.stops[self.measured[i]].position
+        for side in _sides(self.positions[n:], target, self.near):
+            if not obs or obs[-1] != side:
+                obs.append(side)
+        self._cache = (i, len(self.positions), obs)
+        return obs
+
+    def observe(self, position: float) -> None:
+        self.positions.append(position)
+
+    def state(self, i: int) -> str:
+        """``ready``, ``wait`` or ``mismatch`` for measured stop ``i`` (see the class docstring)."""
+        obs, exp = self.observed(i), self.expected(i)
+        if self.anchor is None:
+            return "ready" if obs and obs[-1] == exp[-1] else "wait"
+        if obs == exp:
+            return "ready"
+        return "wait" if obs == exp[:len(obs)] else "mismatch"
+
+    def mismatch(self, i: int) -> str:
+        """Why the readings do not fit measured stop ``i`` (one line)."""
+        s = self.stops[self.measured[i]]
+        seen = ", then ".join(SIDE_WORDS[x] for x in self.observed(i)) or "nowhere else"
+        way = ", then ".join(SIDE_WORDS[x] for x in self.expected(i))
+        return (f"since the last capture the axis was {seen} of this target, but the cycle comes to it {way} "
+                f"(approach {ARROW[s.direction]}): a stop was missed or another program runs")
+
+    def captured(self, i: int) -> None:
+        """The axis stood at measured stop ``i``: the path to the next stop starts there."""
+        self.anchor = self.measured[i]
+        self.anchor_pos = self.stops[self.anchor].position
+        self.positions = []
+        self._cache = (-1, 0, [])
+
+
+def _stable_capture(setup: PositioningSetup, i: int, tracker: ApproachTracker
+                    ) -> Generator[Message, Any, tuple[InterferometerReading, float] | str | None]:
+    """Poll until a reading is measured stop ``i``: reached along the cycle's path, then within the
+    window for the dwell time near the target.  The capture; a mismatch (str) when the axis went
+    where the cycle does not; None after the timeout."""
     tr = setup.trigger
+    s = setup.measured_stops()[i]
     window = tr.stability_window / (3600.0 if setup.axis_type == "rotary" else 1000.0)
     hist: list[tuple[float, float]] = []
     waited = 0.0
     while True:
         ifm, pos = yield from _read(setup)
-        if ifm.ok and abs(pos - s.position) <= tr.near:
+        if ifm.ok and math.isfinite(pos):
+            tracker.observe(pos)
+            state = tracker.state(i)
+            if state == "mismatch":
+                return tracker.mismatch(i)
+        else:
+            state = "wait"
+        if state == "ready" and abs(pos - s.position) <= tr.near:
             hist.append((ifm.timestamp_s, pos))
             while max(p for _, p in hist) - min(p for _, p in hist) > window:
                 hist.pop(0)
@@ -109,16 +206,6 @@ def _stable_capture(setup: PositioningSetup, s: Stop
         waited += max((yield Wait(tr.poll_s)), tr.poll_s)
         if waited > tr.timeout_s:
             return None
-
-
-def _leave(setup: PositioningSetup, s: Stop) -> Generator[Message, Any, None]:
-    """Stability trigger: wait until the axis has left the target it was just captured at."""
-    waited = 0.0
-    while waited <= setup.trigger.timeout_s:
-        ifm, pos = yield from _read(setup)
-        if ifm.ok and abs(pos - s.position) > setup.trigger.near:
-            return
-        waited += max((yield Wait(setup.trigger.poll_s)), setup.trigger.poll_s)
 
 
 def positioning_plan(setup: PositioningSetup, metadata: dict[str, Any],
@@ -142,17 +229,31 @@ def positioning_plan(setup: PositioningSetup, metadata: dict[str, Any],
                          f"The interferometer must not have been re-zeroed. Continue?", ("continue", "abort"),
                          key="resume")
     skipped: list[dict[str, Any]] = list(resume.skipped) if resume else []
+    last_count, armed = -1, False
+    tracker = ApproachTracker(setup, resumed=resume is not None)
+    if mode == "in-position" and i < len(stops):
+        left = yield ReadInPosition()
+        if isinstance(left, InPositionState):
+            armed = not left.done  # a b2 already set belongs to an earlier cycle until this one runs
+            if left.in_position:
+                last_count = left.count
+                yield Log(f"in-position bit left set by an earlier cycle (counter {left.count}, target "
+                          f"{left.target_index}); ignored")
+            if left.done:
+                yield Log("cycle-finished bit left set by an earlier cycle; ignored until this cycle runs")
     if mode in ("in-position", "stability") and i < len(stops):
         yield Instruct("cycle_start", "Start the part program of this cycle (guideway gcode) with Cycle Start.",
                        {}, choices=("started", "abort"), key="start")
-    last_count = -1
     while i < len(stops):
         s = stops[i]
         event = None
         if mode == "in-position":
-            event = yield WaitInPosition(last_count, tr.timeout_s)
-            if event is None or event.cycle_done:
-                why = "the program has finished" if event is not None else f"nothing within {tr.timeout_s:g} s"
+            event = yield WaitInPosition(last_count, tr.timeout_s, armed=armed)
+            if event is not None:
+                armed = armed or event.armed
+            if event is None or event.cycle_done or event.timed_out:
+                why = "the program has finished" if event is not None and event.cycle_done else (
+                    f"nothing within {tr.timeout_s:g} s")
                 yield Prompt(f"No in-position signal for {_where(s, u)} ({why}). Check that the part program runs, "
                              f"then keep waiting, or abort.", ("wait", "abort"), key="inposition",
                              fault=f"no in-position signal for {_where(s, u)}")
@@ -180,13 +281,23 @@ def positioning_plan(setup: PositioningSetup, metadata: dict[str, Any],
                 continue
             ifm, reading = yield from _read(setup)
         else:
-            got_stable = yield from _stable_capture(setup, s)
+            got_stable = yield from _stable_capture(setup, i, tracker)
             if got_stable is None:
                 yield Prompt(f"The axis did not settle near {_where(s, u)} within {tr.timeout_s:g} s. Keep "
                              f"waiting, or abort.", ("wait", "abort"), key="stability",
                              fault=f"axis not stable near {_where(s, u)}")
                 continue
+            if isinstance(got_stable, str):
+                yield Prompt(f"{_where(s, u)}: {got_stable}. Skip this point (recorded; the next one is looked "
+                             f"for), or abort?", ("skip", "abort"), key="mismatch",
+                             fault=f"{_where(s, u)}: {got_stable}")
+                skipped.append({"run": s.run, "direction": s.direction, "target_index": s.target_index,
+                                "reason": got_stable})
+                yield Annotate("skipped", list(skipped))
+                i += 1
+                continue
             ifm, reading = got_stable
+            tracker.captured(i)
         problem = reading_problem(ifm, reading, s, setup)
         if problem is not None:
             answer = yield Prompt(f"{problem} Retry the capture, skip this point (recorded), or abort?",
@@ -207,9 +318,6 @@ def positioning_plan(setup: PositioningSetup, metadata: dict[str, Any],
         if event is not None:
             yield AcknowledgeInPosition(event.count)
             last_count = event.count
-        nxt = stops[i + 1] if i + 1 < len(stops) else None
-        if mode == "stability" and nxt is not None and abs(nxt.position - s.position) <= tr.near:
-            yield from _leave(setup, s)  # the next target is here too: first see the axis go away
         i += 1
     yield CloseRun("all targets captured" + (f" ({len(skipped)} skipped)" if skipped else ""))
 

@@ -18,6 +18,11 @@
 
 A resumed run (:class:`ResumePoint`) skips 1-3 and continues after the last
 completed step; the interferometer datum must not have been reset meanwhile.
+
+Hands-free (``guideway acquire --auto`` with real devices, set-up ``[auto]``):
+step 4 does not ask; the plan polls the interferometer until the block is at
+the station (|lin| within ``max_lin_um``) and still (:func:`arrival`), then
+captures.  After ``station_timeout_s`` it asks (keep waiting, skip, abort).
 """
 
 from __future__ import annotations
@@ -216,6 +221,44 @@ def _place_text(p: int, k: int, x: float, first_return: bool) -> str:
     return f"{where} the block to station {k} (x = {x:g} mm), against the side face; capture when it is still."
 
 
+def arrival(setup: StraightnessSetup, p: int, k: int, x: float) -> Generator[Message, Any, bool]:
+    """Hands-free: poll the interferometer until the block rests at station k; False if the operator
+    skips the station after the timeout.
+
+    At the station: |position - x| within ``[validation] max_lin_um``.  At rest: position,
+    straightness Y and Z stay within ``[auto] still_um`` (peak to peak) over ``still_s``; a reading
+    off the station, or not valid, starts the window again.
+    """
+    a, v = setup.auto, setup.validation
+    where = f"station {k}{' (return)' if p else ''} (x = {x:g} mm)"
+    yield Log(f"hands-free: waiting for the block at {where}")
+    hist: list[tuple[float, float, float, float]] = []  # (time s, position um, stry um, strz um)
+    t_first: float | None = None
+    waited = 0.0
+    while True:
+        ifm = yield TriggerInterferometer()
+        lin_um = (ifm.position_mm - x) * 1000.0
+        t_first = ifm.timestamp_s if t_first is None else t_first
+        if ifm.ok and math.isfinite(lin_um) and abs(lin_um) <= v.max_lin_um:
+            hist.append((ifm.timestamp_s, ifm.position_mm * 1000.0, ifm.stry_um, ifm.strz_um))
+            while max(max(c) - min(c) for c in list(zip(*hist, strict=True))[1:]) > a.still_um:
+                hist.pop(0)  # the block moved: the window starts after the move
+            if hist[-1][0] - hist[0][0] >= a.still_s:
+                return True
+        else:
+            hist.clear()
+        waited += max((yield Wait(a.poll_s)), a.poll_s)
+        if max(waited, ifm.timestamp_s - t_first) >= a.station_timeout_s:
+            answer = yield Prompt(
+                f"The block did not come to rest at {where} within {a.station_timeout_s:g} s (last reading "
+                f"{lin_um:+.0f} um from it). Keep waiting, skip this station (recorded), or abort?",
+                ("wait", "skip", "abort"), default="wait", key="arrival",
+                fault=f"block not at rest at {where} within {a.station_timeout_s:g} s")
+            if answer == "skip":
+                return False
+            waited, t_first = 0.0, None
+
+
 def _capture(setup: StraightnessSetup, k: int, x: float) -> Generator[Message, Any, tuple | None]:
     """Trigger + averaged sensor reading, validated; None if the operator skips the station."""
     v = setup.validation
@@ -238,8 +281,9 @@ def _capture(setup: StraightnessSetup, k: int, x: float) -> Generator[Message, A
 
 
 def straightness_plan(setup: StraightnessSetup, metadata: dict[str, Any],
-                      resume: ResumePoint | None = None) -> Generator[Message, Any, None]:
-    """Yield the messages of a complete (or resumed) straightness run."""
+                      resume: ResumePoint | None = None, *, hands_free: bool = False) -> Generator[Message, Any, None]:
+    """Yield the messages of a complete (or resumed) straightness run; ``hands_free``: wait for the
+    block at each station instead of asking (:func:`arrival`)."""
     steps = setup.steps()
     points: dict[Step, dict[str, Any]] = {}
     skipped: list[dict[str, Any]] = []
@@ -268,7 +312,14 @@ def straightness_plan(setup: StraightnessSetup, metadata: dict[str, Any],
     while i < len(steps):
         p, k = steps[i]
         x = setup.station_x_mm(k)
-        if (p, k) != (0, 0):
+        if (p, k) != (0, 0) and hands_free:
+            if not (yield from arrival(setup, p, k, x)):
+                skipped.append({"station": k, "pass": p, "reason": "the block did not arrive; skipped"})
+                yield Annotate("skipped", list(skipped))
+                yield Annotate("progress", {"pass": p, "station": k})
+                i += 1
+                continue
+        elif (p, k) != (0, 0):
             can_redo = i > 1  # the datum station is never redone (it would move the datum)
             choices = ("capture", "redo", "skip", "pause", "abort") if can_redo else ("capture", "skip", "pause",
                                                                                       "abort")

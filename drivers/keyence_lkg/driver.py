@@ -16,6 +16,16 @@ T = TypeVar("T")
 SERIES = ("LK-G3000", "LK-G5000")
 
 
+def check_output(series: str, output: int) -> None:
+    """ValueError unless ``series`` is an LK-G series and ``output`` one of its outputs
+    (LK-G3000: OUT1/OUT2 via ``M1``/``M2``; LK-G5000: OUT 1..99 via ``MS,<nn>``)."""
+    if series not in SERIES:
+        raise ValueError(f"LK-G series must be one of {', '.join(SERIES)}, not {series!r}")
+    high = 2 if series == "LK-G3000" else protocol.MAX_MS_OUTPUT
+    if isinstance(output, bool) or not isinstance(output, int) or not 1 <= output <= high:
+        raise ValueError(f"{series} output must be 1..{high}, not {output!r}")
+
+
 class KeyenceLKG(DisplacementSensor):
     """LK-G controller; values in mm with the controller's sign.
 
@@ -37,11 +47,7 @@ class KeyenceLKG(DisplacementSensor):
         timeout_s: float = 0.5,
     ) -> None:
         super().__init__(link, endpoint=endpoint, timeout_s=timeout_s)
-        if series not in SERIES:
-            raise ValueError(f"LK-G series must be one of {', '.join(SERIES)}, not {series!r}")
-        high = 2 if series == "LK-G3000" else protocol.MAX_MS_OUTPUT
-        if not 1 <= output <= high:
-            raise ValueError(f"{series} output must be 1..{high}, not {output}")
+        check_output(series, output)
         self.output = output
         self.series = series
         self._line = RequestReply(link, protocol.TERMINATOR)

@@ -32,7 +32,7 @@ def test_both_devices_identity_and_three_readings(sim_rig, capsys: pytest.Captur
     assert code == 0, err
     # the LK-G command set has no identity query: the line says so, and names the command set spoken
     assert lines[0] == (f"sensor {sensor}: model=(not reported; protocol keyence-lkg) "
-                        "commands=Keyence LK-G3000 (RS-232C)")
+                        "commands=Keyence LK-G3000 (RS-232C) output=1")
     assert lines[1].startswith(f"controller {sim_rig.controller_url}: vendor=guideway-sim")
     assert "model=SIM-6DOF-IFM" in lines[1]
     sensor_lines = [ln for ln in lines if " sensor: " in ln]
@@ -55,12 +55,15 @@ def test_both_devices_identity_and_three_readings(sim_rig, capsys: pytest.Captur
     assert 15 < float(env[1]) < 25 and 900 < float(env[4]) < 1100
 
 
-def test_controller_error_is_shown_as_a_reading(sim_rig, capsys: pytest.CaptureFixture[str]) -> None:
+def test_controller_error_is_shown_as_a_reading_and_is_not_a_pass(sim_rig, capsys: pytest.CaptureFixture[str]
+                                                                   ) -> None:
     sim_rig.world.beam_blocked = True
     code, lines, err = probe(capsys, "--controller", sim_rig.controller_url, "--count", "1")
-    assert code == 0, err
-    assert lines[1].startswith("#1 controller: device error: device reported error 1")
+    assert code == 3, err  # the device answered, but reports an error: exit 3, not 0
+    assert lines[1].startswith(f"#1 controller: device error: controller {sim_rig.controller_url}: device reported "
+                               "error 1 to 'trigger': beam interrupted")
     assert "error" in lines[2] and "beam-ok" not in lines[2]
+    assert err.strip() == "guideway: 1 reading(s) with a device error: not a pass (exit 3)"
 
 
 def test_sensor_answering_garbage_exits_2_one_line() -> None:
@@ -169,3 +172,63 @@ def test_a_port_that_hangs_up_is_no_modbus_answer_one_line(hang_up_port: int,
     assert err.startswith("guideway: error:") and err.count("\n") == 1
     assert f"no Modbus answer from 127.0.0.1:{hang_up_port}" in err and "check the controller address" in err
     assert "seconds into read" not in err
+
+
+# -- issue 9: sensor output, device errors, slow and gateway controllers ---------------------------------
+def test_probe_reads_the_lkg5000_output_it_is_told(capsys: pytest.CaptureFixture[str]) -> None:
+    rig = start_simulated_rig(seed=1, noise=False)
+    try:
+        code, lines, err = probe(capsys, "--sensor", f"keyence-lkg:{rig.sensor_url}", "--series", "LK-G5000",
+                                 "--output", "2", "--count", "1")
+    finally:
+        rig.close()
+    assert code == 0, err
+    assert lines[0].endswith("commands=Keyence LK-G5000 (RS-232C) output=2")
+    assert "'MS,02," in lines[1]  # the LK-G5000 reply to MS,02 (the raw frame is shown)
+
+
+@pytest.mark.parametrize(("args", "fragment"), [
+    (("--series", "LK-G3000", "--output", "3"), "LK-G3000 output must be 1..2, not 3"),
+    (("--output", "0"), "output must be 1..2, not 0"),
+])
+def test_bad_sensor_output_is_a_one_line_error(sim_rig, capsys: pytest.CaptureFixture[str], args, fragment) -> None:
+    code, _, err = probe(capsys, "--sensor", f"keyence-lkg:{sim_rig.sensor_url}", *args)
+    assert code == 2 and err.startswith("guideway: error:") and fragment in err and err.count("\n") == 1
+
+
+def test_a_sensor_error_reply_is_not_a_pass(capsys: pytest.CaptureFixture[str]) -> None:
+    rig = start_simulated_rig(seed=1, noise=False, faults="sensor:error@1x1=22")  # the first reading
+    try:
+        code, lines, err = probe(capsys, "--sensor", f"keyence-lkg:{rig.sensor_url}", "--count", "2")
+    finally:
+        rig.close()
+    assert code == 3 and "#1 sensor: device error" in lines[1] and lines[2].startswith("#2 sensor: +")
+    assert "1 reading(s) with a device error" in err
+
+
+def test_a_slow_controller_is_told_apart_from_a_wrong_address(capsys: pytest.CaptureFixture[str]) -> None:
+    rig = start_simulated_rig(seed=1, noise=False, faults="controller:slow@1=0.2")
+    try:
+        code, lines, err = probe(capsys, "--controller", rig.controller_url, "--count", "1",
+                                 "--trigger-timeout", "0.05")
+        ok = probe(capsys, "--controller", rig.controller_url, "--count", "1", "--trigger-timeout", "0.5")
+    finally:
+        rig.close()
+    assert code == 2 and lines[0].startswith(f"controller {rig.controller_url}: vendor=guideway-sim")
+    assert "trigger not completed within 0.05 s" in err and "a slow one needs a longer --trigger-timeout" in err
+    assert "check the controller address" not in err and err.count("\n") == 1
+    assert ok[0] == 0 and ok[1][1].startswith("#1 controller: status 0x0015 [ready data-valid beam-ok]")
+
+
+def test_a_controller_behind_a_gateway_is_probed_at_its_device_id(capsys: pytest.CaptureFixture[str]) -> None:
+    rig = start_simulated_rig(seed=1, noise=False, device_id=7)
+    try:
+        assert rig.controller_url.endswith("?device_id=7")
+        code, lines, err = probe(capsys, "--controller", rig.controller_url, "--count", "1")
+        bare = rig.controller_url.removesuffix("?device_id=7")
+        code1, lines1, err1 = probe(capsys, "--controller", bare, "--count", "1")
+    finally:
+        rig.close()
+    assert code == 0 and "model=SIM-6DOF-IFM" in lines[0], err
+    assert code1 == 2 and lines1 == [] and "Modbus exception 11" in err1
+    assert "no device answers at device id 1 behind the gateway: check device_id= in the URL" in err1

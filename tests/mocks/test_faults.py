@@ -26,6 +26,14 @@ def test_spec_parses_every_part() -> None:
     )
 
 
+def test_a_beam_loss_is_one_request_long_unless_counted_a_slow_controller_for_good() -> None:
+    plan = FaultPlan.parse("controller:beam-loss@30,controller:beam-loss@50x4,controller:slow@1=2.5")
+    assert plan.faults == (Fault("controller", "beam-loss", 30, 1, None), Fault("controller", "beam-loss", 50, 4, None),
+                           Fault("controller", "slow", 1, None, "2.5"))
+    assert [plan.fault_for("controller", n).kind for n in (29, 30, 31, 50, 53, 54)] == [
+        "slow", "beam-loss", "slow", "beam-loss", "beam-loss", "slow"]
+
+
 @pytest.mark.parametrize(
     ("spec", "fragment"),
     [("sensor:close", "expected DEVICE:KIND@N"), ("robot:close@1", "unknown device"),

@@ -57,3 +57,18 @@ def test_extra_registers_and_hooks() -> None:
     finally:
         link.close()
         server.stop()
+
+
+def test_identity_answers_by_read_code_as_field_devices_do() -> None:
+    # Modbus application protocol 6.21: basic objects 0-2, regular 3-6; read code 4 one object
+    from pymodbus.constants import ExcCodes
+
+    from mocks.modbus_server import DeviceIdentity
+
+    objects = {0: "V", 1: "P", 2: "R", 4: "Name", 5: "Model"}
+    category, stream, basic = (DeviceIdentity(objects, a) for a in ("category", "stream", "basic"))
+    assert category.answer(1, 0) == {0: "V", 1: "P", 2: "R"} and category.answer(2, 0) == {4: "Name", 5: "Model"}
+    assert stream.answer(1, 0) == {0: "V", 1: "P", 2: "R"} and stream.answer(2, 0) == objects
+    assert basic.answer(1, 0) == {0: "V", 1: "P", 2: "R"} and basic.answer(2, 0) == ExcCodes.ILLEGAL_VALUE
+    assert category.answer(4, 5) == {5: "Model"} and category.answer(4, 3) == ExcCodes.ILLEGAL_ADDRESS
+    assert stream.answer(2, 4) == {4: "Name", 5: "Model"}  # stream access from object 4 on

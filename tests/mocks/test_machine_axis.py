@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import math
 import struct
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 
 import pytest
 from pymodbus.client import ModbusTcpClient
@@ -13,6 +15,7 @@ from pymodbus.client import ModbusTcpClient
 from drivers.interferometer import load_register_map
 from mocks import machine_axis as ma
 from mocks.interferometer import InterferometerEmulator, ModbusServerThread
+from tests.waiting import wait_for
 
 
 def test_addresses_follow_the_map() -> None:
@@ -37,17 +40,23 @@ STOPS = [ma.MachineStop(-5.0, 0, 1, 1), ma.MachineStop(0.0, 1, 1, 1), ma.Machine
          ma.MachineStop(105.0, 0, 1, -1), ma.MachineStop(100.0, 2, 1, -1), ma.MachineStop(0.0, 1, 1, -1)]
 
 
-def test_handshake_over_modbus() -> None:
-    axis = ma.MachineAxis(STOPS, errors=ma.AxisErrors(noise=0.0), handshake="ack")
+@contextmanager
+def plc(axis: ma.MachineAxis) -> Iterator[tuple[ModbusTcpClient, Callable[[], list[int]]]]:
+    """``axis`` behind the emulator on Modbus TCP: a plain pymodbus client and a reader of 200-211."""
     emu = InterferometerEmulator(axis, extension=ma.InPositionRegisters(axis))  # type: ignore[arg-type]
     server = ModbusServerThread(emu.device())
     client = ModbusTcpClient("127.0.0.1", port=server.port)
     try:
         assert client.connect()
+        yield client, lambda: client.read_holding_registers(200, count=12, device_id=1).registers
+    finally:
+        client.close()
+        server.stop()
 
-        def inpos() -> list[int]:
-            return client.read_holding_registers(200, count=12, device_id=1).registers
 
+def test_handshake_over_modbus() -> None:
+    axis = ma.MachineAxis(STOPS, errors=ma.AxisErrors(noise=0.0), handshake="ack")
+    with plc(axis) as (client, inpos):
         assert inpos()[:5] == [0, 0, 0, 0, 0]  # program not started
         axis.cycle_start()
         r = inpos()
@@ -63,9 +72,6 @@ def test_handshake_over_modbus() -> None:
         client.write_register(205, 3, device_id=1)
         client.write_register(205, 4, device_id=1)
         assert inpos()[0] == 0b100 and axis.done  # cycle finished
-    finally:
-        client.close()
-        server.stop()
 
 
 def test_rotary_angle_register_holds_the_capture() -> None:
@@ -80,3 +86,18 @@ def test_rotary_angle_register_holds_the_capture() -> None:
     ext.access(0, 200, regs, None)
     angle = struct.unpack(">d", b"".join(w.to_bytes(2, "big") for w in regs[208:212]))[0]
     assert angle == pytest.approx(90.0 - 3.6 / 3600.0)  # stops short by half the backlash (arcsec)
+
+
+def test_bits_left_by_an_earlier_cycle_until_the_program_starts() -> None:
+    # docs/modbus-map.md: b1 set at program start (b0/b2 of the earlier cycle cleared), b2 at its end
+    axis = ma.MachineAxis(STOPS, errors=ma.AxisErrors(noise=0.0), handshake="ack", bits_left_set=True,
+                          program_start_s=0.2)
+    with plc(axis) as (client, inpos):
+        # in position (b0) at the earlier cycle's last stop (target 1, run 1, -), counter 57; finished (b2)
+        assert inpos()[:5] == [ma.IP_IN_POSITION | ma.IP_DONE, 1, 1, 0xFFFF, 57]
+        client.write_register(205, 57, device_id=1)  # acknowledging the stale event does not start anything
+        assert inpos()[0] == ma.IP_IN_POSITION | ma.IP_DONE and axis.index == -1
+        axis.cycle_start()
+        assert inpos()[0] == ma.IP_IN_POSITION | ma.IP_DONE  # Cycle Start pressed, the program not started yet
+        wait_for(lambda: inpos()[0] & ma.IP_RUNNING, timeout_s=5, what="the program to start")
+        assert inpos()[:5] == [ma.IP_IN_POSITION | ma.IP_RUNNING, 1, 1, 1, 58]  # target 1, run 1, +: new event

@@ -3,7 +3,9 @@
 Prints each device's identity, then ``--count`` readings (or readings until
 Ctrl-C with ``--follow``): the sensor's value in mm with its status, every
 controller channel with the environment and the decoded status flags.  Exit 0
-when the devices answered, 2 with a one-line reason when not.
+when the devices answered without an error, 3 when one reported an error (an
+error reply, a Modbus exception, the controller's error flag or *beam OK*
+clear: not a pass), 2 with a one-line reason when one did not answer.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import argparse
 import contextlib
 import itertools
 import signal
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -34,15 +37,27 @@ def _ctrl_c_raises() -> Iterator[None]:
         signal.signal(signal.SIGINT, previous)
 
 
+EXIT_DEVICE_ERROR = 3
+
+
 def probe(args: argparse.Namespace) -> int:
     from acquisition.errors import UserError
     from acquisition.probe import open_probe
+    from acquisition.rig import ControllerTiming, SensorOptions
 
     if args.count < 1:
         raise UserError(f"--count must be at least 1 (got {args.count})")
+    d = ControllerTiming()
+    timing = ControllerTiming(args.trigger_timeout or d.trigger_timeout_s, d.poll_interval_s,
+                              args.request_timeout or d.request_timeout_s, d.trigger_retries)
+    if problem := timing.problem():
+        raise UserError(problem.replace("trigger_timeout_s", "--trigger-timeout").replace(
+            "request_timeout_s", "--request-timeout"))
+    options = SensorOptions(args.series, args.output)
     # with --follow, Ctrl-C works from before the first line printed to the end
     with _ctrl_c_raises() if args.follow else contextlib.nullcontext(), \
-            open_probe(args.sensor, args.controller, baudrate=args.baud, environment=args.environment) as p:
+            open_probe(args.sensor, args.controller, baudrate=args.baud, environment=args.environment,
+                       sensor_options=options, timing=timing) as p:
         for line in p.identity_lines():
             print(line, flush=True)
         indices = itertools.count(1) if args.follow else range(1, args.count + 1)
@@ -53,6 +68,9 @@ def probe(args: argparse.Namespace) -> int:
                     time.sleep(args.interval)
         except KeyboardInterrupt:  # --follow ends here; a normal end, not an error
             pass
+    if p.device_errors:
+        print(f"guideway: {p.device_errors} reading(s) with a device error: not a pass (exit 3)", file=sys.stderr)
+        return EXIT_DEVICE_ERROR
     return 0
 
 
@@ -65,8 +83,17 @@ def register(sub) -> None:  # noqa: ANN001
                    help="displacement sensor, e.g. keyence-lkg:/dev/ttyUSB0 or keyence-lkg:socket://host:port")
     p.add_argument("--baud", type=int, default=None, metavar="N",
                    help="sensor baud rate (default: the protocol's usual rate)")
+    p.add_argument("--series", default=None, choices=("LK-G3000", "LK-G5000"),
+                   help="keyence-lkg controller series (LK-G5000 reads with MS,nn; default LK-G3000)")
+    p.add_argument("--output", type=int, default=None, metavar="N",
+                   help="keyence-lkg output to read (LK-G3000: 1-2, LK-G5000: 1-99; default 1)")
     p.add_argument("--controller", default=None, metavar="URL",
-                   help="interferometer controller: modbus-tcp://host:port or modbus-rtu:PORT[?baud=..&parity=E]")
+                   help="interferometer controller: modbus-tcp://host:port[?device_id=N] or "
+                        "modbus-rtu:PORT[?baud=..&parity=E&device_id=N]")
+    p.add_argument("--trigger-timeout", type=float, default=None, metavar="S",
+                   help="seconds a controller measurement may take (default 2; a slow controller needs more)")
+    p.add_argument("--request-timeout", type=float, default=None, metavar="S",
+                   help="seconds one Modbus request waits for its reply (default 1)")
     p.add_argument("--environment", default=None, metavar="URL",
                    help="XY-MD02 temperature/humidity transmitter: modbus-rtu:PORT[?baud=9600] or modbus-tcp://host:port")
     p.add_argument("--count", type=int, default=3, metavar="N", help="readings to take (default 3)")

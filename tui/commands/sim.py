@@ -31,16 +31,19 @@ def _read_commands(rig, out_lock: threading.Lock) -> None:  # noqa: ANN001 - Sim
 
 
 def serve(args: argparse.Namespace) -> int:
+    from acquisition.errors import UserError
     from acquisition.simulation import parse_faults, sensor_emulator, start_simulated_rig
 
     sensor_emulator(args.sensor)  # bad names / specs fail before anything starts
     parse_faults(args.faults)
+    if not 1 <= args.device_id <= 247:
+        raise UserError(f"--device-id {args.device_id} must be 1..247 (a Modbus serial address)")
     stop = threading.Event()
     previous: dict[int, object] = {}
     with tempfile.TemporaryDirectory(prefix="guideway-sim-") as tmp:
         rig = start_simulated_rig(seed=args.seed, noise=not args.no_noise, sensor=args.sensor,
                                   faults=args.faults, modbus_port=args.modbus_port,
-                                  controller=args.modbus,
+                                  controller=args.modbus, device_id=args.device_id,
                                   sensor_link=Path(tmp) / "sensor")
         try:
             # taken once the devices run (and given back below): a rig that fails to start leaves them as they were
@@ -78,8 +81,12 @@ def register(sub) -> None:  # noqa: ANN001
                         "(URL modbus-rtu:/dev/pts/N?...), or RTU frames over TCP (modbus-rtu:socket://127.0.0.1:N)")
     p.add_argument("--modbus-rtu", dest="modbus", action="store_const", const="rtu-over-tcp",
                    help="same as --modbus rtu-over-tcp")
+    p.add_argument("--device-id", type=int, default=1, metavar="N",
+                   help="Modbus unit id the controller answers at, and only there, like a controller behind a "
+                        "gateway (default 1; the controller URL then carries ?device_id=N)")
     p.add_argument("--faults", default=None, metavar="SPEC",
-                   help="inject device faults, e.g. sensor:close@20x1 (DEVICE:KIND@N[xCOUNT][=ARG], docs/faults.md)")
+                   help="inject device faults, e.g. sensor:close@20x1 or controller:slow@1=2.5 "
+                        "(DEVICE:KIND@N[xCOUNT][=ARG], docs/faults.md)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated world (default 0)")
     p.add_argument("--no-noise", action="store_true", help="switch the simulated instrument noise off")
     p.set_defaults(func=serve)
