@@ -41,7 +41,7 @@ def plane_figures(result: FieldResult) -> list[tuple[bytes, str]]:
             if ax.name in result.gridded:
                 positions[ax.name] = float(np.mean(ax.range))
             else:
-                positions[ax.name] = float(result.positions[ax.name][0])
+                positions[ax.name] = float(np.ravel(result.positions[ax.name])[0])
         held = {k: v for k, v in positions.items() if k not in (a_name, b_name)}
         positions[a_name], positions[b_name] = ga, gb
         err = evaluate(model, positions, result.machine.conditions, method=result.method, frame=result.frame)

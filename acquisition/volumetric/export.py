@@ -31,7 +31,7 @@ from processing.volumetric.evaluate import evaluate, nominal
 
 from ..errors import UserError
 from ..runstore import write_text_atomic
-from .field import column_name, grid_positions
+from .field import column_name, flat_positions, grid_positions
 from .machine_file import MachineFile
 
 EXPORT_FORMATS = ("linuxcnc", "csv")
@@ -109,6 +109,7 @@ def export_model(machine: MachineFile, fmt: str, out_dir: Path | str, *, count: 
 def cross_table(machine: MachineFile, cross: list[CrossTerm], grid: dict[str, np.ndarray]) -> pd.DataFrame:
     model = machine.model
     elements = {e.id: e for e in model.elements}
+    grid = flat_positions(grid)
     rows = []
     for c in cross:
         e = elements[c.element]

@@ -68,7 +68,8 @@ def _in_range(axis: Any, v: float, what: str) -> float:
 
 def grid_positions(model: MachineModel, count: int, fixed: Mapping[str, float]
                    ) -> tuple[list[str], dict[str, np.ndarray]]:
-    """(names of the gridded axes, flat position arrays of every moving axis)."""
+    """(names of the gridded axes, positions of every moving axis): flat arrays for the gridded
+    axes, 0-d arrays for the others (so a fixed rotation is computed once)."""
     if count < 2:
         raise UserError(f"--grid {count}: need at least 2 points per axis")
     gridded = [a for a in model.axes if a.kind == "prismatic" and a.name not in fixed]
@@ -79,11 +80,16 @@ def grid_positions(model: MachineModel, count: int, fixed: Mapping[str, float]
                         f"the limit is {MAX_POSES}, use a smaller --grid")
     axes = np.meshgrid(*(np.linspace(a.range[0], a.range[1], count) for a in gridded), indexing="ij")
     positions = {a.name: g.ravel() for a, g in zip(gridded, axes, strict=True)}
-    n = axes[0].size
     for a in model.axes:
         if a.name not in positions:
-            positions[a.name] = np.full(n, float(fixed.get(a.name, a.reference)))
+            positions[a.name] = np.asarray(float(fixed.get(a.name, a.reference)))
     return [a.name for a in gridded], positions
+
+
+def flat_positions(positions: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Every axis's positions as one flat array per pose."""
+    n = max((np.size(v) for v in positions.values()), default=1)
+    return {k: np.broadcast_to(np.ravel(v), (n,)) if np.size(v) == 1 else np.ravel(v) for k, v in positions.items()}
 
 
 @dataclass
@@ -114,11 +120,13 @@ class FieldResult:
         return self.machine.model
 
     def pose(self, i: int) -> dict[str, float]:
-        return {a.name: float(self.positions[a.name][i]) for a in self.model.axes}
+        flat = flat_positions(self.positions)
+        return {a.name: float(flat[a.name][i]) for a in self.model.axes}
 
     def table(self) -> pd.DataFrame:
         """One row per pose: positions, the error components, |d| and the orientation error."""
-        cols: dict[str, np.ndarray] = {column_name(a): self.positions[a.name] for a in self.model.axes}
+        flat = flat_positions(self.positions)
+        cols: dict[str, np.ndarray] = {column_name(a): flat[a.name] for a in self.model.axes}
         for i, c in enumerate(COMPONENT_COLUMNS):
             cols[c] = self.error.position_um[:, i]
         cols["d_um"] = self.error.distance_um
@@ -127,7 +135,8 @@ class FieldResult:
         return pd.DataFrame(cols)
 
     def contribution_table(self) -> pd.DataFrame:
-        cols: dict[str, np.ndarray] = {column_name(a): self.positions[a.name] for a in self.model.axes}
+        flat = flat_positions(self.positions)
+        cols: dict[str, np.ndarray] = {column_name(a): flat[a.name] for a in self.model.axes}
         for g, d in self.groups.items():
             for i, c in enumerate(COMPONENT_COLUMNS):
                 cols[f"{g}_{c}"] = d[:, i]
@@ -138,7 +147,7 @@ def evaluate_field(machine: MachineFile, positions: dict[str, np.ndarray], *, me
                    frame: str = "workpiece") -> FieldResult:
     """Totals by ``method`` and the first-order contributions at the poses ``positions`` (flat arrays)."""
     model = machine.model
-    n = len(next(iter(positions.values())))
+    n = max(np.size(v) for v in positions.values())
     groups: dict[str, np.ndarray] = {}
     stats: list[ElementStats] = []
     fo_d = np.zeros((n, 3))
@@ -185,7 +194,7 @@ def field_summary(result: FieldResult) -> dict[str, Any]:
         "frame": result.frame,
         "conditions": m.conditions,
         "grid": {"points_per_axis": result.count, "gridded_axes": result.gridded, "poses": len(dist),
-                 "fixed": {a.name: float(result.positions[a.name][0]) for a in m.model.axes
+                 "fixed": {a.name: float(np.ravel(result.positions[a.name])[0]) for a in m.model.axes
                            if a.name not in result.gridded}},
         "elements": m.model.counts(),
         "max_distance_um": {"value": float(dist[far]), "pose": result.pose(far),
@@ -259,7 +268,7 @@ def at_pose(machine: MachineFile, values: Sequence[str], *, method: str = "first
 
 
 def _value_at(e: Element, pose: Mapping[str, float], conditions: Mapping[str, float]) -> np.ndarray:
-    return element_values(e, {k: np.asarray(v) for k, v in pose.items()}, conditions, ())
+    return element_values(e, {k: np.asarray(v) for k, v in pose.items()}, conditions)
 
 
 def _vector(d: np.ndarray, w: np.ndarray) -> dict[str, float]:

@@ -105,7 +105,8 @@ def cross_terms(model: MachineModel, grid: Mapping[str, np.ndarray | float], ref
         held[a.name] = nominal(model, proj)
     out: list[CrossTerm] = []
     for e in model.elements:
-        d, w = base_displacement(model, nom, e, conditions)
+        full = nom.shape + (3,)
+        d, w = (np.broadcast_to(v, full) for v in base_displacement(model, nom, e, conditions))
         d_rest, w_rest = d.copy(), w.copy()
         for a in axes:
             vec, rest = (d, d_rest) if a.kind == "prismatic" else (w, w_rest)

@@ -54,16 +54,16 @@ class Nominal:
 
 
 def nominal(model: MachineModel, positions: Mapping[str, np.ndarray | float]) -> Nominal:
-    """Broadcast the positions and walk both nominal chains; KeyError names a missing axis."""
+    """Walk both nominal chains at the positions (kept as given: a constant axis stays 0-d, so its
+    rotation is computed once); KeyError names a missing axis."""
     missing = [a.name for a in model.axes if a.name not in positions]
     if missing:
         raise KeyError(f"no position for axis {missing[0]}")
     arrays = {a.name: np.asarray(positions[a.name], dtype=float) for a in model.axes}
     shape = np.broadcast_shapes(*(v.shape for v in arrays.values())) if arrays else ()
-    arrays = {k: np.broadcast_to(v, shape) for k, v in arrays.items()}
-    wp = walk_chain(model.workpiece, arrays, shape)
-    tl = walk_chain(model.tool, arrays, shape)
-    return Nominal(wp, tl, tool_point(tl, model.tool_offset_mm), shape, arrays)
+    wp = walk_chain(model.workpiece, arrays)
+    tl = walk_chain(model.tool, arrays)
+    return Nominal(wp, tl, np.broadcast_to(tool_point(tl, model.tool_offset_mm), shape + (3,)), shape, arrays)
 
 
 def _check_frame(frame: str) -> None:
@@ -75,26 +75,33 @@ def _rotary_workpiece(model: MachineModel) -> bool:
     return any(b.kind == "rotary" for b in model.workpiece)
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b over broadcast stacks of 3-vectors (np.cross is several times slower on long stacks)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
+
+
 def base_displacement(model: MachineModel, nom: Nominal, e: Element, conditions: Mapping[str, float]
                       ) -> tuple[np.ndarray, np.ndarray]:
     """First-order change of the tool point relative to the workpiece (mm) and of the relative
     orientation (rad) caused by ``e``, in machine-frame axes: + for a tool-chain element, − for a
-    workpiece-chain one (it moves the workpiece point under the tool)."""
+    workpiece-chain one (it moves the workpiece point under the tool).  Arrays broadcast to
+    ``nom.shape + (3,)`` (a constant element may return one vector)."""
     body = model.body(e.body)
     walk = nom.workpiece if body.chain == "workpiece" else nom.tool
     r_f, o_f = walk.carrying[body.name]
-    v = element_values(e, nom.positions, conditions, nom.shape)[..., None]
+    sign = -1.0 if body.chain == "workpiece" else 1.0
+    v = element_values(e, nom.positions, conditions)[..., None] * sign
     vec = np.asarray(e.vector, dtype=float)
     if e.kind == "translation":
-        d, w = apply(r_f, vec) * (v * UM), np.zeros(3)
-    elif e.kind == "rotation":
+        return apply(r_f, vec) * (v * UM), np.zeros(3)
+    if e.kind == "rotation":
         w = apply(r_f, vec) * (v * URAD)
-        d = np.cross(w, nom.tool_point - o_f)
-    else:  # squareness: travel q times the tilt of the motion direction
-        q = nom.positions[body.name][..., None]
-        d, w = apply(r_f, np.cross(vec, body.direction)) * (q * v * URAD), np.zeros(3)
-    sign = -1.0 if body.chain == "workpiece" else 1.0
-    return sign * np.broadcast_to(d, nom.shape + (3,)), sign * np.broadcast_to(w, nom.shape + (3,))
+        return _cross(w, nom.tool_point - o_f), w
+    # squareness: travel q times the tilt of the motion direction
+    q = nom.positions[body.name][..., None]
+    return apply(r_f, np.cross(vec, body.direction)) * (q * v * URAD), np.zeros(3)
 
 
 def contributions(model: MachineModel, positions: Mapping[str, np.ndarray | float],
@@ -106,24 +113,34 @@ def contributions(model: MachineModel, positions: Mapping[str, np.ndarray | floa
     _check_frame(frame)
     nom = nominal(model, positions)
     rotate = frame == "workpiece" and _rotary_workpiece(model)
+    full = nom.shape + (3,)
     for e in model.elements:
         d, w = base_displacement(model, nom, e, conditions)
         if rotate:
             d, w = apply_transposed(nom.workpiece_rotation, d), apply_transposed(nom.workpiece_rotation, w)
-        yield e, d * 1e3, w * 1e6
+        yield e, np.broadcast_to(d * 1e3, full), np.broadcast_to(w * 1e6, full)
 
 
 def first_order(model: MachineModel, positions: Mapping[str, np.ndarray | float],
                 conditions: Mapping[str, float], frame: str = "workpiece") -> VolumetricError:
-    """The volumetric error linear in every element (the sum of the contributions)."""
+    """The volumetric error linear in every element (the sum of the contributions, computed per body:
+    its summed translation δ, rotation ε and squareness tilt θ at its carrying frame F give
+    R_F δ + (R_F ε) × (x_tool − o_F) + q·R_F (θ × u), with the chain's sign)."""
     _check_frame(frame)
     nom = nominal(model, positions)
+    errs = body_errors(model.bodies, model.elements, nom.positions, conditions)
     d = np.zeros(nom.shape + (3,))
     w = np.zeros(nom.shape + (3,))
-    for e in model.elements:
-        de, we = base_displacement(model, nom, e, conditions)
-        d += de
-        w += we
+    for b in model.bodies:
+        be = errs[b.name]
+        r_f, o_f = (nom.workpiece if b.chain == "workpiece" else nom.tool).carrying[b.name]
+        sign = -1.0 if b.chain == "workpiece" else 1.0
+        wb = apply(r_f, be.error_r + be.location_r)
+        db = apply(r_f, be.error_t + be.location_t) + _cross(wb, nom.tool_point - o_f)
+        if b.kind == "prismatic":
+            db = db + apply(r_f, _cross(be.tilt, b.direction)) * nom.positions[b.name][..., None]
+        d += sign * db
+        w += sign * wb
     if frame == "workpiece" and _rotary_workpiece(model):
         d, w = apply_transposed(nom.workpiece_rotation, d), apply_transposed(nom.workpiece_rotation, w)
     return VolumetricError(d * 1e3, w * 1e6, frame)
@@ -134,9 +151,9 @@ def exact(model: MachineModel, positions: Mapping[str, np.ndarray | float], cond
     """The volumetric error from the full product of the error transforms (no small-angle step)."""
     _check_frame(frame)
     nom = nominal(model, positions)
-    errs = body_errors(model.bodies, model.elements, nom.positions, conditions, nom.shape)
-    wp = walk_chain(model.workpiece, nom.positions, nom.shape, errs)
-    tl = walk_chain(model.tool, nom.positions, nom.shape, errs)
+    errs = body_errors(model.bodies, model.elements, nom.positions, conditions)
+    wp = walk_chain(model.workpiece, nom.positions, errs)
+    tl = walk_chain(model.tool, nom.positions, errs)
     xt = tool_point(tl, model.tool_offset_mm)
     rw0, ow0 = nom.workpiece.end
     rw, ow = wp.end
@@ -148,7 +165,8 @@ def exact(model: MachineModel, positions: Mapping[str, np.ndarray | float], cond
     w = euler_zyx(rel_actual @ np.swapaxes(rel_nominal, -1, -2))
     if frame == "machine":
         d, w = apply(rw0, d), apply(rw0, w)
-    return VolumetricError(d * 1e3, w * 1e6, frame)
+    full = nom.shape + (3,)
+    return VolumetricError(np.broadcast_to(d * 1e3, full).copy(), np.broadcast_to(w * 1e6, full).copy(), frame)
 
 
 def evaluate(model: MachineModel, positions: Mapping[str, np.ndarray | float], conditions: Mapping[str, float],
