@@ -24,7 +24,7 @@ from processing.volumetric.model import (
 )
 from processing.volumetric.rotations import AXIS_LETTERS, signed_axis, unit_vector
 
-from ..errors import SetupError
+from ..errors import SetupError, UserError
 from ..setup import _Table, read_toml
 from .run_channels import CHANNELS, LINES, RunCache, channel_vector, run_curve
 
@@ -128,6 +128,11 @@ class _Reader:
     def fail(self, where: str, message: str) -> SetupError:
         return SetupError(f"{self.source}: {where}: {message}")
 
+    def sub_table(self, t: _Table, key: str) -> _Table:
+        """``[<chain>_chain.<key>]`` of one body, named after the body in messages."""
+        t.used.add(key)
+        return _Table(self.source, f"{t.name} {key}", t.data.get(key, {}), EXAMPLE)
+
     def body(self, t: _Table, chain: str) -> Body:
         name = t.get("name", str, required=True)
         if not name.isidentifier():
@@ -155,9 +160,7 @@ class _Reader:
 
     def body_elements(self, body: Body, t: _Table) -> list[Element]:
         out: list[Element] = []
-        errors = t.table("errors")
-        location = t.table("location")
-        thermal = t.table("thermal")
+        errors, location, thermal = (self.sub_table(t, key) for key in ("errors", "location", "thermal"))
         t.check_unknown()
         if body.moving:
             for c in COMPONENTS:  # all six error motions of an axis are elements, zero when not given
@@ -192,10 +195,7 @@ class _Reader:
                      ) -> tuple[Curve, str, str]:
         """(curve, variable, description) of one element source: a number, a table, a polynomial
         or a run channel (motion errors only); thermal sources name their variable with ``of``."""
-        if _number(spec):
-            if thermal:
-                raise self.fail(where, "a thermal element needs of = \"temperature_c\" or \"time_h\" and a poly "
-                                "or table")
+        if _number(spec) and not thermal:  # thermal sources are tables (their variable is named)
             return Constant(float(spec)), "constant", "zero" if spec == 0 else "constant"
         if not isinstance(spec, dict):
             raise self.fail(where, f"must be a number or a table {{...}}, got {spec!r}")
@@ -248,10 +248,15 @@ class _Reader:
             raise self.fail(where, f"channel {channel} of this run measures {gives} of axis {body.name} (run frame: "
                             f"travel {_axis_text(travel)}, up {_axis_text(up)}), not {component}; put it under "
                             f"{gives} or correct up/travel")
-        rc = run_curve(self.cache, path, channel, axis_kind=body.kind, where=f"{self.source}: {where}",
-                       direction=str(spec.get("direction", "mean")), line=str(line),
-                       method=str(spec.get("method", "exact")), start=float(spec.get("start", 0.0)),
-                       travel_sign=float(travel @ body.direction) if body.kind == "prismatic" else 1.0)
+        try:
+            rc = run_curve(self.cache, path, channel, axis_kind=body.kind, where=f"{self.source}: {where}",
+                           direction=str(spec.get("direction", "mean")), line=str(line),
+                           method=str(spec.get("method", "exact")), start=float(spec.get("start", 0.0)),
+                           travel_sign=float(travel @ body.direction) if body.kind == "prismatic" else 1.0)
+        except SetupError:
+            raise
+        except UserError as exc:  # the run itself is unreadable: say which element wanted it
+            raise self.fail(where, str(exc)) from None
         sign = float(vec @ want)
         curve = Table(tuple(rc.positions), tuple(sign * rc.values))
         self._check_cover(curve, body, where, "position")
