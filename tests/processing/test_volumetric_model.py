@@ -309,3 +309,18 @@ def test_squareness_is_the_angle_between_the_actual_axes_minus_90_degrees() -> N
     for (a, b), value in s.items():
         obtuse_by = math.acos(float(u[a] @ u[b])) - math.pi / 2
         assert obtuse_by * 1e6 == pytest.approx(value, rel=2e-3)
+
+
+def test_machine_frame_is_the_workpiece_frame_turned_by_the_table(five_axis) -> None:  # noqa: ANN001
+    """With the rotary table C in the workpiece chain the two frames differ by the table's rotation."""
+    _, model, cond = five_axis
+    p = poses(10, seed=13)
+    for evaluate in (first_order, exact):
+        wp, mc = evaluate(model, p, cond, "workpiece"), evaluate(model, p, cond, "machine")
+        c = np.deg2rad(p["C"])
+        turn = np.array([[np.cos(c), -np.sin(c), 0 * c], [np.sin(c), np.cos(c), 0 * c], [0 * c, 0 * c, 1 + 0 * c]])
+        turn = np.moveaxis(turn, -1, 0)  # Rz(C) per pose: the nominal workpiece frame in the machine frame
+        np.testing.assert_allclose(mc.position_um, np.einsum("nij,nj->ni", turn, wp.position_um), atol=1e-9)
+        np.testing.assert_allclose(mc.orientation_urad, np.einsum("nij,nj->ni", turn, wp.orientation_urad),
+                                   atol=1e-9)
+        assert np.max(np.abs(mc.position_um - wp.position_um)) > 1.0
