@@ -17,7 +17,14 @@ import numpy as np
 import pandas as pd
 
 from processing.volumetric.chain import element_values
-from processing.volumetric.evaluate import VolumetricError, contributions, evaluate, first_order
+from processing.volumetric.evaluate import (
+    ElementSummary,
+    VolumetricError,
+    contribution_summary,
+    contributions,
+    evaluate,
+    first_order,
+)
 from processing.volumetric.model import Element, MachineModel
 
 from ..errors import UserError
@@ -93,14 +100,6 @@ def flat_positions(positions: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]
 
 
 @dataclass
-class ElementStats:
-    element: Element
-    max_position_um: float = 0.0
-    max_orientation_urad: float = 0.0
-    rms_position_um: float = 0.0
-
-
-@dataclass
 class FieldResult:
     """The error over a set of poses with its first-order breakdown."""
 
@@ -110,7 +109,7 @@ class FieldResult:
     positions: dict[str, np.ndarray]
     error: VolumetricError
     groups: dict[str, np.ndarray]                 # group -> position contribution (n, 3) µm
-    elements: list[ElementStats]
+    elements: list[ElementSummary]                # largest contribution first
     first_order_gap_um: float | None = None       # max |exact − first-order| (exact only)
     gridded: list[str] = field(default_factory=list)
     count: int = 0
@@ -147,29 +146,14 @@ def evaluate_field(machine: MachineFile, positions: dict[str, np.ndarray], *, me
                    frame: str = "workpiece") -> FieldResult:
     """Totals by ``method`` and the first-order contributions at the poses ``positions`` (flat arrays)."""
     model = machine.model
-    n = max(np.size(v) for v in positions.values())
-    groups: dict[str, np.ndarray] = {}
-    stats: list[ElementStats] = []
-    fo_d = np.zeros((n, 3))
-    fo_w = np.zeros((n, 3))
-    for e, d, w in contributions(model, positions, machine.conditions, frame):
-        g = group_of(e)
-        groups[g] = groups[g] + d if g in groups else d.copy()
-        fo_d += d
-        fo_w += w
-        norm = np.linalg.norm(d, axis=-1)
-        stats.append(ElementStats(e, float(norm.max(initial=0.0)),
-                                  float(np.linalg.norm(w, axis=-1).max(initial=0.0)),
-                                  float(np.sqrt(np.mean(norm ** 2))) if n else 0.0))
-    fo = VolumetricError(fo_d, fo_w, frame)
+    summary = contribution_summary(model, positions, machine.conditions, group_of, frame)
     gap = None
+    total = summary.total
     if method == "exact":
         total = evaluate(model, positions, machine.conditions, method="exact", frame=frame)
-        gap = float(np.max(np.linalg.norm(total.position_um - fo_d, axis=-1), initial=0.0))
-    else:
-        total = fo
-    stats.sort(key=lambda s: (-s.max_position_um, -s.max_orientation_urad))
-    return FieldResult(machine, method, frame, positions, total, groups, stats, gap)
+        gap = float(np.max(np.linalg.norm(total.position_um - summary.total.position_um, axis=-1), initial=0.0))
+    stats = sorted(summary.elements, key=lambda s: (-s.max_position_um, -s.max_orientation_urad))
+    return FieldResult(machine, method, frame, positions, total, summary.groups, stats, gap)
 
 
 def _extreme(values: np.ndarray, result: FieldResult) -> dict[str, Any]:
@@ -211,7 +195,7 @@ def field_summary(result: FieldResult) -> dict[str, Any]:
     }
 
 
-def element_row(s: ElementStats) -> dict[str, Any]:
+def element_row(s: ElementSummary) -> dict[str, Any]:
     e = s.element
     return {"element": e.id, "group": e.group, "body": e.body, "unit": e.unit, "source": e.source,
             "max_position_um": s.max_position_um, "max_orientation_urad": s.max_orientation_urad,

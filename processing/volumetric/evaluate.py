@@ -12,7 +12,8 @@ of the base, for per-axis compensation).  ``positions`` maps every moving axis t
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+import math
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -119,6 +120,59 @@ def contributions(model: MachineModel, positions: Mapping[str, np.ndarray | floa
         if rotate:
             d, w = apply_transposed(nom.workpiece_rotation, d), apply_transposed(nom.workpiece_rotation, w)
         yield e, np.broadcast_to(d * 1e3, full), np.broadcast_to(w * 1e6, full)
+
+
+@dataclass(frozen=True)
+class ElementSummary:
+    """How much one element contributes over the poses (first order): the largest and RMS length of
+    its position contribution (µm) and the largest of its orientation contribution (µrad)."""
+
+    element: Element
+    max_position_um: float
+    max_orientation_urad: float
+    rms_position_um: float
+
+
+@dataclass(frozen=True)
+class ContributionSummary:
+    total: VolumetricError        # first order, = the sum of the groups
+    groups: dict[str, np.ndarray]  # group -> its position contribution, shape + (3,), µm
+    elements: list[ElementSummary]  # in the model's order
+
+
+def _row_norm(v: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.einsum("...i,...i->...", v, v))
+
+
+def contribution_summary(model: MachineModel, positions: Mapping[str, np.ndarray | float],
+                         conditions: Mapping[str, float], group: Callable[[Element], str],
+                         frame: str = "workpiece") -> ContributionSummary:
+    """The first-order error, the contribution of each group of elements (``group(element)`` names
+    it) and each element's size, in one pass without keeping every element's field (lengths do
+    not depend on the frame, so only the sums are turned into the workpiece frame)."""
+    _check_frame(frame)
+    nom = nominal(model, positions)
+    full = nom.shape + (3,)
+    groups: dict[str, np.ndarray] = {}
+    w_total = np.zeros(full)
+    stats = []
+    for e in model.elements:
+        d, w = base_displacement(model, nom, e, conditions)
+        g = group(e)
+        if g not in groups:
+            groups[g] = np.zeros(full)
+        groups[g] += d
+        w_total += w
+        dn, wn = _row_norm(d), _row_norm(w)
+        stats.append(ElementSummary(e, float(np.max(dn, initial=0.0)) * 1e3, float(np.max(wn, initial=0.0)) * 1e6,
+                                    math.sqrt(float(np.mean(dn * dn))) * 1e3))  # a constant: its one value
+    d_total = sum(groups.values(), np.zeros(full))
+    if frame == "workpiece" and _rotary_workpiece(model):
+        r = nom.workpiece_rotation
+        groups = {g: apply_transposed(r, v) for g, v in groups.items()}
+        d_total, w_total = apply_transposed(r, d_total), apply_transposed(r, w_total)
+    groups = {g: v * 1e3 for g, v in groups.items()}
+    return ContributionSummary(VolumetricError(d_total * 1e3, w_total * 1e6, frame), groups, stats)
 
 
 def first_order(model: MachineModel, positions: Mapping[str, np.ndarray | float],
