@@ -28,7 +28,7 @@ EXAMPLE = str(ROOT / "docs" / "machine-example.toml")
     (["--out", "d", "--set", "C=400"], "--set C=400: 400 deg is outside the range of C"),
     (["--out", "d", "--grid", "1"], "--grid 1: need at least 2 points per axis"),
     (["--out", "d", "--grid", "2000"], "the limit is 2000000, use a smaller --grid"),
-    (["--out", "d", "--set", "X=1", "--set", "Y=1", "--set", "Z=-1"], "no prismatic axis left to grid"),
+    (["--out", "d", "--set", "X=1", "--set", "Y=1", "--set", "Z=-1", "--set", "C=0"], "every axis is fixed"),
 ])
 def test_bad_options_are_one_line_errors(args: list[str], message: str, capsys: pytest.CaptureFixture[str],
                                          tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -43,6 +43,19 @@ def test_missing_machine_file_and_traceback_free_failure(tmp_path: Path) -> None
                          cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert res.stderr.strip() == f"guideway: error: {tmp_path / 'none.toml'}: no such setup file"
+
+
+def test_grid_over_the_rotary_axis_when_every_prismatic_axis_is_held(tmp_path: Path,
+                                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "c"
+    assert main(["volumetric", EXAMPLE, "--out", str(out), "--grid", "5", "--set", "X=400", "--set", "Y=250",
+                 "--set", "Z=-100"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["grid"]["gridded_axes"] == ["C"] and summary["grid"]["poses"] == 5
+    assert summary["grid"]["fixed"] == {"X": 400.0, "Y": 250.0, "Z": -100.0}
+    table = (out / "volumetric.csv").read_text().splitlines()
+    assert table[0].startswith("X_mm,Y_mm,Z_mm,C_deg,") and [r.split(",")[3] for r in table[1:]] == [
+        "0.000000", "90.000000", "180.000000", "270.000000", "360.000000"]
 
 
 def test_at_accepts_named_axes_and_keeps_the_others_at_their_reference(capsys: pytest.CaptureFixture[str]) -> None:

@@ -76,12 +76,14 @@ def _in_range(axis: Any, v: float, what: str) -> float:
 def grid_positions(model: MachineModel, count: int, fixed: Mapping[str, float]
                    ) -> tuple[list[str], dict[str, np.ndarray]]:
     """(names of the gridded axes, positions of every moving axis): flat arrays for the gridded
-    axes, 0-d arrays for the others (so a fixed rotation is computed once)."""
+    axes — the free prismatic axes, or the free rotary axes when no prismatic axis is free — and 0-d
+    arrays for the others (so a fixed rotation is computed once)."""
     if count < 2:
         raise UserError(f"--grid {count}: need at least 2 points per axis")
-    gridded = [a for a in model.axes if a.kind == "prismatic" and a.name not in fixed]
+    free = [a for a in model.axes if a.name not in fixed]
+    gridded = [a for a in free if a.kind == "prismatic"] or free  # no prismatic axis free: the rotary ones
     if not gridded:
-        raise UserError("no prismatic axis left to grid (all fixed with --set); use --at for one pose")
+        raise UserError("every axis is fixed with --set; leave one free, or use --at for one pose")
     if count ** len(gridded) > MAX_POSES:
         raise UserError(f"--grid {count} over {len(gridded)} axes gives {count ** len(gridded)} poses; "
                         f"the limit is {MAX_POSES}, use a smaller --grid")
