@@ -3,6 +3,7 @@ of the in-plane error), extremes, per-axis and per-element contributions, the ma
 
 from __future__ import annotations
 
+from datetime import UTC, datetime
 from itertools import combinations
 from typing import Any
 
@@ -11,6 +12,7 @@ import numpy as np
 from processing.volumetric.evaluate import evaluate
 
 from ..volumetric.field import COMPONENT_COLUMNS, CONVENTIONS, ORIENTATION_COLUMNS, FieldResult
+from .build import tool_version
 from .html import HtmlPage, figure_png
 
 PLANE_POINTS = 21  # per axis in the field plots
@@ -128,8 +130,9 @@ def volumetric_page(result: FieldResult, summary: dict[str, Any], command: str =
     machine_section(page, result)
     page.heading("Conventions")
     page.paragraph(CONVENTIONS)
-    if command:
-        page.paragraph(f"Produced with: {command}", "note footer")
+    generated = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+    page.paragraph(f"Produced by guideway {tool_version()} on {generated}" + (f" with: {command}" if command else ""),
+                   "note footer")
     return page
 
 

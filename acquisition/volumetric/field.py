@@ -145,8 +145,9 @@ class FieldResult:
 
 
 def evaluate_field(machine: MachineFile, positions: dict[str, np.ndarray], *, method: str = "first-order",
-                   frame: str = "workpiece") -> FieldResult:
-    """Totals by ``method`` and the first-order contributions at the poses ``positions`` (flat arrays)."""
+                   frame: str = "workpiece", gridded: Sequence[str] = (), count: int = 0) -> FieldResult:
+    """Totals by ``method`` and the first-order contributions at the poses ``positions`` (flat arrays;
+    ``gridded`` and ``count`` describe the grid they came from, :func:`grid_positions`)."""
     model = machine.model
     summary = contribution_summary(model, positions, machine.conditions, group_of, frame)
     gap = None
@@ -155,7 +156,7 @@ def evaluate_field(machine: MachineFile, positions: dict[str, np.ndarray], *, me
         total = evaluate(model, positions, machine.conditions, method="exact", frame=frame)
         gap = float(np.max(np.linalg.norm(total.position_um - summary.total.position_um, axis=-1), initial=0.0))
     stats = sorted(summary.elements, key=lambda s: (-s.max_position_um, -s.max_orientation_urad))
-    return FieldResult(machine, method, frame, positions, total, summary.groups, stats, gap)
+    return FieldResult(machine, method, frame, positions, total, summary.groups, stats, gap, list(gridded), count)
 
 
 def _extreme(values: np.ndarray, result: FieldResult) -> dict[str, Any]:

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from processing.decoupling import DEFAULT_METHOD, METHODS
 from processing.volumetric.curves import Constant, Curve, Polynomial, Table
 from processing.volumetric.model import (
     COMPONENTS,
@@ -237,6 +238,13 @@ class _Reader:
         line = spec.get("line", "least_squares")
         if line not in LINES:
             raise self.fail(where, f"line must be one of {', '.join(LINES)}, got {line!r}")
+        start = spec.get("start", 0.0)
+        if not _number(start):
+            raise self.fail(where, f"start must be a number (the axis position of the run's first station), "
+                            f"got {start!r}")
+        method = spec.get("method", DEFAULT_METHOD)
+        if method not in METHODS:
+            raise self.fail(where, f"method must be one of {', '.join(METHODS)}, got {method!r}")
         path = self.base_dir / str(spec["run"])
         travel, up = self._run_frame(spec, where, body)
         rotation, vec = (True, body.direction) if body.kind == "rotary" else channel_vector(channel, travel, up)
@@ -251,7 +259,7 @@ class _Reader:
         try:
             rc = run_curve(self.cache, path, channel, axis_kind=body.kind, where=f"{self.source}: {where}",
                            direction=str(spec.get("direction", "mean")), line=str(line),
-                           method=str(spec.get("method", "exact")), start=float(spec.get("start", 0.0)),
+                           method=method, start=float(start),
                            travel_sign=float(travel @ body.direction) if body.kind == "prismatic" else 1.0)
         except SetupError:
             raise

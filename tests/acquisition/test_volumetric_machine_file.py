@@ -95,6 +95,11 @@ range = [0.0, 100.0]
     ("[tool_chain.errors]\nEX = { run = \"r\", channel = \"linear\", up = \"+X\" }\n",
      "up +X must be perpendicular to the travel +X"),
     ("[tool_chain.errors]\nEX = { run = \"r\", channel = \"bogus\" }\n", "channel must be one of linear"),
+    ("[tool_chain.errors]\nEY = { run = \"r\", channel = \"stry\", method = \"fast\" }\n",
+     "method must be one of exact, first-order, patent"),
+    ("[tool_chain.errors]\nEY = { run = \"r\", channel = \"stry\", line = \"best\" }\n",
+     "line must be one of least_squares, endpoint, none"),
+    ("[tool_chain.errors]\nEY = { run = \"r\", channel = \"stry\", start = \"x\" }\n", "start must be a number"),
 ])
 def test_bad_machine_files_give_one_line_errors(tmp_path: Path, extra: str, message: str) -> None:
     with pytest.raises(SetupError) as info:

@@ -74,8 +74,7 @@ def _grid(machine, args: argparse.Namespace, method: str, fixed: dict[str, float
 
     _notes(machine)
     gridded, positions = grid_positions(machine.model, args.grid, fixed)
-    result = evaluate_field(machine, positions, method=method, frame=args.frame)
-    result.gridded, result.count = gridded, args.grid
+    result = evaluate_field(machine, positions, method=method, frame=args.frame, gridded=gridded, count=args.grid)
     command = shlex.join(["guideway", "volumetric", *sys.argv[2:]]) if sys.argv[1:2] == ["volumetric"] else ""
     summary = write_field(result, args.out, command=command)
     far = summary["max_distance_um"]
