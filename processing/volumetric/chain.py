@@ -21,8 +21,9 @@ from typing import Any
 
 import numpy as np
 
+from . import components as cp
 from .model import Body, Element
-from .rotations import apply, compose, principal_rotation, rotation_zyx
+from .rotations import apply, principal_rotation
 
 Pose = tuple[np.ndarray, np.ndarray]  # (R (..., 3, 3), o (..., 3))
 UM, URAD = 1e-3, 1e-6  # to mm, rad
@@ -40,29 +41,14 @@ def element_values(e: Element, positions: Mapping[str, np.ndarray], conditions: 
     return e.curve(x)
 
 
-@dataclass
-class BodyErrors:
-    """The exact error terms of one body (arrays ``(..., 3)`` broadcasting to the poses): location
-    translation (mm) and rotation (rad), error-motion translation (mm) and rotation (rad),
-    squareness tilt (rad)."""
-
-    location_t: np.ndarray
-    location_r: np.ndarray
-    error_t: np.ndarray
-    error_r: np.ndarray
-    tilt: np.ndarray
-
-    @staticmethod
-    def zero() -> BodyErrors:
-        return BodyErrors(*(np.zeros(3) for _ in range(5)))
+FIELDS = ("location_t", "location_r", "error_t", "error_r", "tilt")
 
 
-def body_errors(bodies: tuple[Body, ...], elements: tuple[Element, ...], positions: Mapping[str, np.ndarray],
-                conditions: Mapping[str, float]) -> dict[str, BodyErrors]:
-    """Sum the elements of every body into its exact error terms."""
-    fields = ("location_t", "location_r", "error_t", "error_r", "tilt")
-    # per body and field, three scalar components (most element vectors are unit axes)
-    sums: dict[str, dict[str, list[Any]]] = {b.name: {f: [0.0, 0.0, 0.0] for f in fields} for b in bodies}
+def body_error_sums(bodies: tuple[Body, ...], elements: tuple[Element, ...], positions: Mapping[str, np.ndarray],
+                    conditions: Mapping[str, float]) -> dict[str, dict[str, list[Any]]]:
+    """Per body and error term (:data:`FIELDS`), the three summed components (mm or rad): arrays
+    over the poses, or plain numbers where no element varies (most element vectors are unit axes)."""
+    sums: dict[str, dict[str, list[Any]]] = {b.name: {f: [0.0, 0.0, 0.0] for f in FIELDS} for b in bodies}
     for e in elements:
         if e.body not in sums:
             continue
@@ -76,12 +62,7 @@ def body_errors(bodies: tuple[Body, ...], elements: tuple[Element, ...], positio
         for k, c in enumerate(e.vector):
             if c:
                 acc[k] = acc[k] + c * v
-    return {name: BodyErrors(*(_stack(sums[name][f]) for f in fields)) for name in sums}
-
-
-def _stack(parts: list[Any]) -> np.ndarray:
-    arrays = np.broadcast_arrays(*(np.asarray(p, dtype=float) for p in parts))
-    return np.stack(arrays, axis=-1)
+    return sums
 
 
 @dataclass(frozen=True)
@@ -93,35 +74,61 @@ class ChainWalk:
     end: Pose                  # the frame of the chain's last body (identity for an empty chain)
 
 
-def _rt(e_r: np.ndarray, e_t: np.ndarray) -> Pose:
-    return rotation_zyx(e_r[..., 0], e_r[..., 1], e_r[..., 2]), e_t
-
-
-def walk_chain(bodies: tuple[Body, ...], positions: Mapping[str, np.ndarray],
-               errors: Mapping[str, BodyErrors] | None = None) -> ChainWalk:
-    """Compose the chain from the base; ``errors`` None: the nominal chain."""
+def walk_chain(bodies: tuple[Body, ...], positions: Mapping[str, np.ndarray]) -> ChainWalk:
+    """Compose the nominal chain from the base, keeping every body's carrying frame."""
     pose: Pose = (np.eye(3), np.zeros(3))
     carrying: dict[str, Pose] = {}
     for b in bodies:
         pose = (pose[0], pose[1] + apply(pose[0], np.asarray(b.offset_mm, dtype=float)))
-        err = errors[b.name] if errors is not None else None
         if b.kind == "prismatic":
-            u = b.direction
-            if err is not None:
-                u = apply(rotation_zyx(err.tilt[..., 0], err.tilt[..., 1], err.tilt[..., 2]), u)
             q = np.asarray(positions[b.name], dtype=float)[..., None]
-            pose = (pose[0], pose[1] + apply(pose[0], q * u))
-            carrying[b.name] = pose
-            if err is not None:
-                pose = compose(pose, _rt(err.error_r, err.error_t))
-            continue
+            pose = (pose[0], pose[1] + apply(pose[0], q * b.direction))
         carrying[b.name] = pose
-        if err is not None:
-            pose = compose(compose(pose, _rt(err.location_r, err.location_t)), _rt(err.error_r, err.error_t))
         if b.kind == "rotary":
             angle = np.deg2rad(np.asarray(positions[b.name], dtype=float)) * b.sign
             pose = (pose[0] @ principal_rotation(b.axis, angle), pose[1])
     return ChainWalk(carrying, pose)
+
+
+def _is_zero(v: list[Any]) -> bool:
+    return all(isinstance(c, float) and c == 0.0 for c in v)
+
+
+def walk_exact(bodies: tuple[Body, ...], positions: Mapping[str, np.ndarray],
+               sums: Mapping[str, dict[str, list[Any]]] | None = None) -> tuple[cp.Mat, cp.Vec]:
+    """The pose (R, o) of the chain's last body, component-wise (:mod:`.components`): the exact
+    product of the transforms in the module docstring; ``sums`` (:func:`body_error_sums`) None:
+    the nominal chain.  Same result as :func:`walk_chain`, several times faster on many poses."""
+    r: cp.Mat = cp.IDENTITY
+    o: cp.Vec = [0.0, 0.0, 0.0]
+
+    def then(o: cp.Vec, r: cp.Mat, t: list[Any], a: list[Any]) -> tuple[cp.Vec, cp.Mat]:
+        """(r, o) · Trans(t) · R(a)."""
+        if not _is_zero(t):
+            o = cp.vec_add(o, cp.mat_vec(r, t))
+        if not _is_zero(a):
+            r = cp.mat_mul(r, cp.mat_zyx(*a))
+        return o, r
+
+    for b in bodies:
+        o = cp.vec_add(o, cp.mat_vec(r, list(b.offset_mm)))
+        e = sums[b.name] if sums is not None else None
+        if b.kind == "prismatic":
+            u: list[Any] = list(b.direction)
+            if e is not None and not _is_zero(e["tilt"]):
+                u = cp.mat_vec(cp.mat_zyx(*e["tilt"]), u)
+            q = np.asarray(positions[b.name], dtype=float)
+            o = cp.vec_add(o, cp.mat_vec(r, [q * c for c in u]))
+            if e is not None:
+                o, r = then(o, r, e["error_t"], e["error_r"])
+            continue
+        if e is not None:
+            o, r = then(o, r, e["location_t"], e["location_r"])
+            o, r = then(o, r, e["error_t"], e["error_r"])
+        if b.kind == "rotary":
+            angle = np.deg2rad(np.asarray(positions[b.name], dtype=float)) * b.sign
+            r = cp.mat_mul(r, cp.mat_principal(b.axis, angle))
+    return r, o
 
 
 def tool_point(walk: ChainWalk, tool_offset_mm: tuple[float, float, float]) -> np.ndarray:

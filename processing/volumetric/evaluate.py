@@ -15,12 +15,23 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from .chain import UM, URAD, ChainWalk, body_errors, element_values, tool_point, walk_chain
+from . import components as cp
+from .chain import (
+    UM,
+    URAD,
+    ChainWalk,
+    body_error_sums,
+    element_values,
+    tool_point,
+    walk_chain,
+    walk_exact,
+)
 from .model import Element, MachineModel
-from .rotations import apply, apply_transposed, euler_zyx
+from .rotations import apply, apply_transposed
 
 FRAMES = ("workpiece", "machine")
 METHODS = ("first-order", "exact")
@@ -76,33 +87,36 @@ def _rotary_workpiece(model: MachineModel) -> bool:
     return any(b.kind == "rotary" for b in model.workpiece)
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b over broadcast stacks of 3-vectors (np.cross is several times slower on long stacks)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
-
-
-def base_displacement(model: MachineModel, nom: Nominal, e: Element, conditions: Mapping[str, float]
-                      ) -> tuple[np.ndarray, np.ndarray]:
+def displacement(model: MachineModel, nom: Nominal, e: Element, conditions: Mapping[str, float],
+                 levers: dict[str, cp.Vec] | None = None) -> tuple[cp.Vec, cp.Vec]:
     """First-order change of the tool point relative to the workpiece (mm) and of the relative
-    orientation (rad) caused by ``e``, in machine-frame axes: + for a tool-chain element, − for a
-    workpiece-chain one (it moves the workpiece point under the tool).  Arrays broadcast to
-    ``nom.shape + (3,)`` (a constant element may return one vector)."""
+    orientation (rad) caused by ``e``, in machine-frame axes, component-wise: + for a tool-chain
+    element, − for a workpiece-chain one (it moves the workpiece point under the tool).
+    ``levers`` caches the tool point's offset from each body's carrying frame."""
     body = model.body(e.body)
     walk = nom.workpiece if body.chain == "workpiece" else nom.tool
     r_f, o_f = walk.carrying[body.name]
     sign = -1.0 if body.chain == "workpiece" else 1.0
-    v = element_values(e, nom.positions, conditions)[..., None] * sign
+    v = element_values(e, nom.positions, conditions) * sign
     vec = np.asarray(e.vector, dtype=float)
+    zero: cp.Vec = [0.0, 0.0, 0.0]
     if e.kind == "translation":
-        return apply(r_f, vec) * (v * UM), np.zeros(3)
+        return cp.scaled(apply(r_f, vec), v * UM), zero
     if e.kind == "rotation":
-        w = apply(r_f, vec) * (v * URAD)
-        return _cross(w, nom.tool_point - o_f), w
+        w = cp.scaled(apply(r_f, vec), v * URAD)
+        levers = {} if levers is None else levers
+        if body.name not in levers:
+            levers[body.name] = cp.split(nom.tool_point - o_f)
+        return cp.cross(w, levers[body.name]), w
     # squareness: travel q times the tilt of the motion direction
-    q = nom.positions[body.name][..., None]
-    return apply(r_f, np.cross(vec, body.direction)) * (q * v * URAD), np.zeros(3)
+    return cp.scaled(apply(r_f, np.cross(vec, body.direction)), nom.positions[body.name] * v * URAD), zero
+
+
+def base_displacement(model: MachineModel, nom: Nominal, e: Element, conditions: Mapping[str, float]
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`displacement` as two arrays ``nom.shape + (3,)`` (mm, rad)."""
+    d, w = displacement(model, nom, e, conditions)
+    return cp.stack(d, nom.shape), cp.stack(w, nom.shape)
 
 
 def contributions(model: MachineModel, positions: Mapping[str, np.ndarray | float],
@@ -140,10 +154,6 @@ class ContributionSummary:
     elements: list[ElementSummary]  # in the model's order
 
 
-def _row_norm(v: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.einsum("...i,...i->...", v, v))
-
-
 def contribution_summary(model: MachineModel, positions: Mapping[str, np.ndarray | float],
                          conditions: Mapping[str, float], group: Callable[[Element], str],
                          frame: str = "workpiece") -> ContributionSummary:
@@ -152,27 +162,28 @@ def contribution_summary(model: MachineModel, positions: Mapping[str, np.ndarray
     not depend on the frame, so only the sums are turned into the workpiece frame)."""
     _check_frame(frame)
     nom = nominal(model, positions)
-    full = nom.shape + (3,)
-    groups: dict[str, np.ndarray] = {}
-    w_total = np.zeros(full)
+    groups: dict[str, cp.Vec] = {}
+    w_total: cp.Vec = [0.0, 0.0, 0.0]
+    levers: dict[str, cp.Vec] = {}
     stats = []
     for e in model.elements:
-        d, w = base_displacement(model, nom, e, conditions)
-        g = group(e)
-        if g not in groups:
-            groups[g] = np.zeros(full)
-        groups[g] += d
-        w_total += w
-        dn, wn = _row_norm(d), _row_norm(w)
-        stats.append(ElementSummary(e, float(np.max(dn, initial=0.0)) * 1e3, float(np.max(wn, initial=0.0)) * 1e6,
+        d, w = displacement(model, nom, e, conditions, levers)
+        acc = groups.setdefault(group(e), [0.0, 0.0, 0.0])
+        for k in range(3):
+            acc[k] = cp.add(acc[k], d[k])
+            w_total[k] = cp.add(w_total[k], w[k])
+        dn, wn = np.asarray(cp.norm(d)), np.asarray(cp.norm(w))
+        stats.append(ElementSummary(e, float(np.max(dn)) * 1e3, float(np.max(wn)) * 1e6,
                                     math.sqrt(float(np.mean(dn * dn))) * 1e3))  # a constant: its one value
-    d_total = sum(groups.values(), np.zeros(full))
+    sums = {g: cp.stack(v, nom.shape) for g, v in groups.items()}
+    d_total = sum(sums.values(), np.zeros(nom.shape + (3,)))
+    w_sum = cp.stack(w_total, nom.shape)
     if frame == "workpiece" and _rotary_workpiece(model):
         r = nom.workpiece_rotation
-        groups = {g: apply_transposed(r, v) for g, v in groups.items()}
-        d_total, w_total = apply_transposed(r, d_total), apply_transposed(r, w_total)
-    groups = {g: v * 1e3 for g, v in groups.items()}
-    return ContributionSummary(VolumetricError(d_total * 1e3, w_total * 1e6, frame), groups, stats)
+        sums = {g: apply_transposed(r, v) for g, v in sums.items()}
+        d_total, w_sum = apply_transposed(r, d_total), apply_transposed(r, w_sum)
+    return ContributionSummary(VolumetricError(d_total * 1e3, w_sum * 1e6, frame),
+                               {g: v * 1e3 for g, v in sums.items()}, stats)
 
 
 def first_order(model: MachineModel, positions: Mapping[str, np.ndarray | float],
@@ -182,45 +193,55 @@ def first_order(model: MachineModel, positions: Mapping[str, np.ndarray | float]
     R_F δ + (R_F ε) × (x_tool − o_F) + q·R_F (θ × u), with the chain's sign)."""
     _check_frame(frame)
     nom = nominal(model, positions)
-    errs = body_errors(model.bodies, model.elements, nom.positions, conditions)
-    d = np.zeros(nom.shape + (3,))
-    w = np.zeros(nom.shape + (3,))
+    sums = body_error_sums(model.bodies, model.elements, nom.positions, conditions)
+    d: cp.Vec = [0.0, 0.0, 0.0]
+    w: cp.Vec = [0.0, 0.0, 0.0]
     for b in model.bodies:
-        be = errs[b.name]
+        e = sums[b.name]
         r_f, o_f = (nom.workpiece if b.chain == "workpiece" else nom.tool).carrying[b.name]
         sign = -1.0 if b.chain == "workpiece" else 1.0
-        wb = apply(r_f, be.error_r + be.location_r)
-        db = apply(r_f, be.error_t + be.location_t) + _cross(wb, nom.tool_point - o_f)
+        wb = cp.rotate(r_f, [cp.add(x, y) for x, y in zip(e["error_r"], e["location_r"], strict=True)])
+        db = cp.rotate(r_f, [cp.add(x, y) for x, y in zip(e["error_t"], e["location_t"], strict=True)])
+        if any(not isinstance(c, float) or c for c in wb):
+            db = [cp.add(x, y) for x, y in zip(db, cp.cross(wb, cp.split(nom.tool_point - o_f)), strict=True)]
         if b.kind == "prismatic":
-            db = db + apply(r_f, _cross(be.tilt, b.direction)) * nom.positions[b.name][..., None]
-        d += sign * db
-        w += sign * wb
+            tilt = cp.rotate(r_f, cp.cross(e["tilt"], list(b.direction)))
+            db = [cp.add(x, cp.mul(y, nom.positions[b.name])) for x, y in zip(db, tilt, strict=True)]
+        d = [cp.add(x, cp.mul(sign, y)) for x, y in zip(d, db, strict=True)]
+        w = [cp.add(x, cp.mul(sign, y)) for x, y in zip(w, wb, strict=True)]
+    dv, wv = cp.stack(d, nom.shape), cp.stack(w, nom.shape)
     if frame == "workpiece" and _rotary_workpiece(model):
-        d, w = apply_transposed(nom.workpiece_rotation, d), apply_transposed(nom.workpiece_rotation, w)
-    return VolumetricError(d * 1e3, w * 1e6, frame)
+        dv, wv = apply_transposed(nom.workpiece_rotation, dv), apply_transposed(nom.workpiece_rotation, wv)
+    return VolumetricError(dv * 1e3, wv * 1e6, frame)
 
 
 def exact(model: MachineModel, positions: Mapping[str, np.ndarray | float], conditions: Mapping[str, float],
           frame: str = "workpiece") -> VolumetricError:
     """The volumetric error from the full product of the error transforms (no small-angle step)."""
     _check_frame(frame)
-    nom = nominal(model, positions)
-    errs = body_errors(model.bodies, model.elements, nom.positions, conditions)
-    wp = walk_chain(model.workpiece, nom.positions, errs)
-    tl = walk_chain(model.tool, nom.positions, errs)
-    xt = tool_point(tl, model.tool_offset_mm)
-    rw0, ow0 = nom.workpiece.end
-    rw, ow = wp.end
-    p_nominal = apply_transposed(rw0, nom.tool_point - ow0)
-    p_actual = apply_transposed(rw, xt - ow)
-    rel_nominal = np.swapaxes(rw0, -1, -2) @ nom.tool.end[0]
-    rel_actual = np.swapaxes(rw, -1, -2) @ tl.end[0]
-    d = p_actual - p_nominal
-    w = euler_zyx(rel_actual @ np.swapaxes(rel_nominal, -1, -2))
+    arrays = {a.name: np.asarray(positions[a.name], dtype=float) for a in model.axes}
+    shape = np.broadcast_shapes(*(v.shape for v in arrays.values())) if arrays else ()
+    sums = body_error_sums(model.bodies, model.elements, arrays, conditions)
+    tool = list(model.tool_offset_mm)
+    relative = []
+    for errors in (None, sums):
+        rw, ow = walk_exact(model.workpiece, arrays, errors)
+        rt, ot = walk_exact(model.tool, arrays, errors)
+        p = cp.mat_t_vec(rw, cp.vec_sub(cp.vec_add(ot, cp.mat_vec(rt, tool)), ow))
+        rel = [[rw[0][i] * rt[0][k] + rw[1][i] * rt[1][k] + rw[2][i] * rt[2][k] for k in range(3)]
+               for i in range(3)]  # R_wᵀ R_t
+        relative.append((p, rel, rw))
+    (p0, rel0, rw0), (p1, rel1, _) = relative
+
+    def turn(i: int, k: int) -> Any:  # (R_rel,actual · R_rel,nominalᵀ)[i][k]
+        return rel1[i][0] * rel0[k][0] + rel1[i][1] * rel0[k][1] + rel1[i][2] * rel0[k][2]
+
+    d = cp.vec_sub(p1, p0)
+    w = [np.arctan2(turn(2, 1), turn(2, 2)), -np.arcsin(np.clip(turn(2, 0), -1.0, 1.0)),
+         np.arctan2(turn(1, 0), turn(0, 0))]
     if frame == "machine":
-        d, w = apply(rw0, d), apply(rw0, w)
-    full = nom.shape + (3,)
-    return VolumetricError(np.broadcast_to(d * 1e3, full).copy(), np.broadcast_to(w * 1e6, full).copy(), frame)
+        d, w = cp.mat_vec(rw0, d), cp.mat_vec(rw0, w)
+    return VolumetricError(cp.stack(d, shape) * 1e3, cp.stack(w, shape) * 1e6, frame)
 
 
 def evaluate(model: MachineModel, positions: Mapping[str, np.ndarray | float], conditions: Mapping[str, float],

@@ -4,6 +4,7 @@ Angles in rad.  A rotation built from three angles is **R = Rz(εz)·Ry(εy)·Rx
 (docs/conventions.md); every function takes arrays broadcasting to a common shape ``S`` and
 returns ``S + (3, 3)`` matrices or ``S + (3,)`` vectors.  A rigid transform is the pair
 (R, t): p ↦ R p + t, the 4×4 homogeneous matrix [[R, t], [0, 1]] without its constant row.
+The exact chain product uses the component-wise form of :mod:`.components`.
 """
 
 from __future__ import annotations
@@ -30,27 +31,11 @@ def rotation_zyx(ex: np.ndarray | float, ey: np.ndarray | float, ez: np.ndarray 
     return r
 
 
-def euler_zyx(r: np.ndarray) -> np.ndarray:
-    """The angles (ex, ey, ez) of rotation matrices ``r = Rz(ez) Ry(ey) Rx(ex)``, stacked on the last axis."""
-    ey = -np.arcsin(np.clip(r[..., 2, 0], -1.0, 1.0))
-    ex = np.arctan2(r[..., 2, 1], r[..., 2, 2])
-    ez = np.arctan2(r[..., 1, 0], r[..., 0, 0])
-    return np.stack((ex, ey, ez), axis=-1)
-
-
 def principal_rotation(axis: int, angle: np.ndarray | float) -> np.ndarray:
     """Rotation by ``angle`` (right-hand rule) about the principal axis ``axis`` (0 = X, 1 = Y, 2 = Z)."""
     angles = [np.zeros_like(np.asarray(angle, dtype=float))] * 3
     angles[axis] = np.asarray(angle, dtype=float)
     return rotation_zyx(*angles)
-
-
-def compose(first: tuple[np.ndarray, np.ndarray], second: tuple[np.ndarray, np.ndarray]
-            ) -> tuple[np.ndarray, np.ndarray]:
-    """The transform ``first · second`` (apply ``second``, then ``first``)."""
-    r1, t1 = first
-    r2, t2 = second
-    return r1 @ r2, np.einsum("...ij,...j->...i", r1, t2) + t1
 
 
 def apply(r: np.ndarray, v: np.ndarray) -> np.ndarray:

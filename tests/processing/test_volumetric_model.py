@@ -324,3 +324,22 @@ def test_machine_frame_is_the_workpiece_frame_turned_by_the_table(five_axis) -> 
         np.testing.assert_allclose(mc.orientation_urad, np.einsum("nij,nj->ni", turn, wp.orientation_urad),
                                    atol=1e-9)
         assert np.max(np.abs(mc.position_um - wp.position_um)) > 1.0
+
+
+def test_component_wise_rotations_match_the_matrix_ones() -> None:
+    """The exact path's component-wise rotations (processing/volumetric/components.py) against the
+    test-side 4×4 rotations, about each axis and composed."""
+    from processing.volumetric import components as cp
+
+    from .volumetric_reference import rot, rot_x, rot_y, rot_z
+
+    angles = np.array([0.3, -1.2, 2.5])
+    for axis, turn in enumerate((rot_x, rot_y, rot_z)):
+        m = cp.mat_principal(axis, angles)
+        for i, a in enumerate(angles):
+            got = np.array([[np.broadcast_to(m[r][c], angles.shape)[i] for c in range(3)] for r in range(3)])
+            np.testing.assert_allclose(got, turn(a)[:3, :3], atol=1e-15)
+    z = cp.mat_zyx(0.1, -0.2, 0.3)
+    np.testing.assert_allclose(np.array(z, dtype=float), rot(0.1, -0.2, 0.3)[:3, :3], atol=1e-15)
+    prod = cp.mat_mul(z, cp.mat_principal(1, 0.7))
+    np.testing.assert_allclose(np.array(prod, dtype=float), (rot(0.1, -0.2, 0.3) @ rot_y(0.7))[:3, :3], atol=1e-15)
