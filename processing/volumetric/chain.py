@@ -67,8 +67,8 @@ def body_error_sums(bodies: tuple[Body, ...], elements: tuple[Element, ...], pos
 
 @dataclass(frozen=True)
 class ChainWalk:
-    """Poses broadcast against the positions: a rotation stays one (3, 3) matrix until a rotary axis
-    or an angular error that varies over the poses makes it vary too."""
+    """Nominal poses broadcast against the positions: a rotation stays one (3, 3) matrix until a rotary
+    axis whose angle varies over the poses makes it vary too."""
 
     carrying: dict[str, Pose]  # per body: the frame that carries its errors
     end: Pose                  # the frame of the chain's last body (identity for an empty chain)
