@@ -53,6 +53,7 @@ def test_grid_over_the_rotary_axis_when_every_prismatic_axis_is_held(tmp_path: P
     summary = json.loads((out / "summary.json").read_text())
     assert summary["grid"]["gridded_axes"] == ["C"] and summary["grid"]["poses"] == 5
     assert summary["grid"]["fixed"] == {"X": 400.0, "Y": 250.0, "Z": -100.0}
+    assert "along C" in (out / "report.html").read_text()  # one gridded axis: the components along it
     table = (out / "volumetric.csv").read_text().splitlines()
     assert table[0].startswith("X_mm,Y_mm,Z_mm,C_deg,") and [r.split(",")[3] for r in table[1:]] == [
         "0.000000", "90.000000", "180.000000", "270.000000", "360.000000"]

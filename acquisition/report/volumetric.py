@@ -24,7 +24,8 @@ def _pose_text(pose: dict[str, float], units: dict[str, str]) -> str:
 
 
 def plane_figures(result: FieldResult) -> list[tuple[bytes, str]]:
-    """One PNG per plane of two gridded prismatic axes, the other axes at mid-range / their fixed value."""
+    """One PNG per plane of two gridded axes, the other axes at mid-range / their fixed value (one
+    gridded axis: the error components along it)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -33,6 +34,19 @@ def plane_figures(result: FieldResult) -> list[tuple[bytes, str]]:
     model = result.model
     axes = {a.name: a for a in model.axes}
     out = []
+    if len(result.gridded) == 1:  # one axis: the error components along it
+        a = axes[result.gridded[0]]
+        q = np.ravel(result.positions[a.name])
+        fig, ax = plt.subplots(figsize=(6.4, 3.6))
+        for i, label in enumerate(("dx", "dy", "dz")):
+            ax.plot(q, result.error.position_um[:, i], marker=".", label=label)
+        ax.plot(q, result.error.distance_um, color="black", label="|d|")
+        ax.set_xlabel(f"{a.name} ({a.unit})")
+        ax.set_ylabel("error (µm)")
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        out.append((figure_png(fig), f"Error of the tool relative to the workpiece along {a.name} "
+                                     f"({result.method}, {result.frame} frame)."))
     for a_name, b_name in combinations(result.gridded, 2):
         a, b = axes[a_name], axes[b_name]
         qa = np.linspace(a.range[0], a.range[1], PLANE_POINTS)
