@@ -255,13 +255,16 @@ def test_cli_export_linuxcnc_tables_read_back(machine_dir: tuple[Path, dict], tm
                                  str(out), "--grid", "9")
     assert code == 0, err
     assert "cross terms" in stdout
-    for axis, span in (("X", 400.0), ("Z", 300.0)):
+    for axis in ("X", "Z"):
         comp = read_linuxcnc_comp((out / f"{axis}.comp").read_text(), file_type=1)
-        pos = np.linspace(0.0, span, 9)
         nodes = truth[f"{axis}_targets"]  # the model: linear between the targets, ends held
-        expected = np.interp(pos, nodes, [truth[axis](p) for p in nodes])
+        assert comp.errors == [] and len(comp.nominal) == 9
+        # no table reaches outside the measured range: first to last target
+        np.testing.assert_allclose(comp.nominal, np.linspace(nodes[0], nodes[-1], 9), atol=1e-6)
+        expected = np.interp(comp.nominal, nodes, [truth[axis](p) for p in nodes])
         for direction in (1, -1):
-            np.testing.assert_allclose(comp.correction_um(pos, direction), -expected, atol=1.5e-3)  # 1 nm digits
+            np.testing.assert_allclose(comp.correction_um(np.array(comp.nominal), direction), -expected,
+                                       atol=1.5e-3)  # 1 nm digits
     cross = (out / "cross-terms.csv").read_text().splitlines()
     assert cross[0].startswith("element,group,body,target,max_abs,unit,X_mm,Z_mm,source")
     assert any(line.startswith("EYX,") for line in cross[1:])  # X's straightness: along Y, no Y axis to hold it

@@ -100,6 +100,12 @@ def export_model(machine: MachineFile, fmt: str, out_dir: Path | str, *, count: 
         raise UserError(f"cannot write the tables to {out}: {exc.strerror or exc}") from None
     notes = ["the model is direction independent: both directions of every table hold the same values; "
              "for the reversal use `guideway export RUN_DIR` on the axis's positioning run"]
+    for t in tables:
+        lo, hi = model.body(t.axis).range  # type: ignore[misc]
+        if t.position[0] > lo or t.position[-1] < hi:
+            notes.append(f"the {t.axis} table spans the measured {t.position[0]:g} … {t.position[-1]:g} "
+                         f"{t.position_unit} of its range {lo:g} … {hi:g}; beyond, the controller holds the end "
+                         "values")
     if fmt == "linuxcnc":
         notes.append("LinuxCNC: [JOINT_n] COMP_FILE = <AXIS>.comp, COMP_FILE_TYPE = 1 (trims −e); table "
                      "positions are axis positions, make sure they are the joint's machine coordinates")

@@ -56,13 +56,27 @@ def machine_direction(nom: Nominal, body: Body) -> np.ndarray:
     return np.broadcast_to(apply(walk.carrying[body.name][0], body.direction), nom.shape + (3,))
 
 
+def measured_span(model: MachineModel, axis: str) -> tuple[float, float]:
+    """The part of the axis's range its tabulated error curves (tables, runs) cover: a table never
+    reaches outside it (docs/compensation.md); polynomials and constants cover everything."""
+    body = model.body(axis)
+    if body.range is None:
+        raise ValueError(f"{axis} is not a moving axis")
+    lo, hi = body.range
+    for e in model.elements:
+        if e.body == axis and e.variable == "position" and e.curve.domain is not None:
+            lo, hi = max(lo, e.curve.domain[0]), min(hi, e.curve.domain[1])
+    return (lo, hi) if lo < hi else body.range
+
+
 def axis_table(model: MachineModel, axis: str, count: int, reference: Mapping[str, float],
                conditions: Mapping[str, float], method: str = "first-order") -> AxisTable:
-    """The table of ``axis`` at ``count`` equidistant positions over its range, others at ``reference``."""
+    """The table of ``axis`` at ``count`` equidistant positions over its :func:`measured_span`, the
+    other axes at ``reference``."""
     body = model.body(axis)
     if not body.moving or body.range is None:
         raise ValueError(f"{axis} is not a moving axis")
-    q = np.linspace(body.range[0], body.range[1], count)
+    q = np.linspace(*measured_span(model, axis), count)
     positions: dict[str, np.ndarray | float] = {a.name: float(reference[a.name]) for a in model.axes}
     positions[axis] = q
     err = evaluate(model, positions, conditions, method=method, frame="machine")
