@@ -1,7 +1,8 @@
 """The volumetric error over a grid of the workspace, and at one pose, from a machine file.
 
 The grid spans the prismatic axes, ``count`` equidistant positions over each range; rotary axes
-(and any axis fixed with ``--set AXIS=VALUE``) stay at one position, their reference unless set.
+(and any axis fixed with ``--set AXIS=VALUE``) stay at one position, their reference unless set
+(with every prismatic axis held, the free rotary axes are gridded).
 Totals come from the chosen method (first-order or exact); the contributions of elements and of
 axes (groups) are first order and add up to the first-order total.
 """
