@@ -231,10 +231,11 @@ def controller_timing_keys(ctl: _Table) -> dict[str, Any]:
 class _Table:
     """One TOML table with typed, named access and a check for unknown keys."""
 
-    def __init__(self, source: str, name: str, data: Any) -> None:
+    def __init__(self, source: str, name: str, data: Any, examples: str = "docs/setup-*.toml") -> None:
         if not isinstance(data, dict):
             raise SetupError(f"{source}: [{name}] must be a table")
         self.source, self.name, self.data = source, name, data
+        self.examples = examples  # the commented example files the messages point to
         self.used: set[str] = set()
 
     def _where(self, key: str) -> str:
@@ -244,7 +245,7 @@ class _Table:
         self.used.add(key)
         if key not in self.data:
             if required or default is ...:
-                raise SetupError(f"{self._where(key)} is missing; add it (see the examples docs/setup-*.toml)")
+                raise SetupError(f"{self._where(key)} is missing; add it (see the examples {self.examples})")
             return default
         v = self.data[key]
         if kind is float and isinstance(v, int) and not isinstance(v, bool):
@@ -263,14 +264,14 @@ class _Table:
 
     def table(self, key: str) -> _Table:
         self.used.add(key)
-        return _Table(self.source, key, self.data.get(key, {}))
+        return _Table(self.source, key, self.data.get(key, {}), self.examples)
 
     def check_unknown(self) -> None:
         extra = sorted(set(self.data) - self.used)
         if extra:
             where = f"[{self.name}]" if self.name else "top level"
             raise SetupError(f"{self.source}: unknown key {extra[0]!r} in {where}; check the spelling "
-                             "(see the commented examples docs/setup-*.toml)")
+                             f"(see the commented examples {self.examples})")
 
 
 def _is_number(x: Any) -> bool:

@@ -18,6 +18,7 @@ COMMAND_MODULES = (
     "import_data",
     "air_index",
     "export",
+    "volumetric",
     "sim",
     "devices",
     "report",
