@@ -104,11 +104,13 @@ def machine_dir(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
     world = demo.sim.world
     poses = [world.solve_pose(world.nominal_x_mm(k)) for k in range(STATIONS)]
     r0 = poses[0].r
+    laser = world.in_laser_frame  # the interferometer reports in the laser's fixed frame (docs/conventions.md)
     hits = [world.beam_hit(p)[1] for p in poses]
-    s = np.array([r0.T @ (h - hits[0]) for h in hits])  # sample points in the datum block frame (mm)
+    s = np.array([laser(h - hits[0]) for h in hits])  # sample points in the laser frame (mm)
     mirror = np.asarray(world.block.mirror_mm)
-    p_moves = np.array([r0.T @ (p.apply(mirror) - poses[0].apply(mirror)) for p in poses])
-    angles = np.array([euler_zyx(r0.T @ p.r) for p in poses]) * 1e6  # roll, yaw, pitch (urad)
+    p_moves = np.array([laser(p.apply(mirror) - poses[0].apply(mirror)) for p in poses])
+    # rotation since the datum, in the laser frame: L^T (R_k R_0^T) L; roll, yaw, pitch (urad)
+    angles = np.array([euler_zyx(laser(laser(p.r @ r0.T).T).T) for p in poses]) * 1e6
     height = s[:, 1] * 1e3
     height = height - np.polyval(np.polyfit(s[:, 0], height, 1), s[:, 0])  # least-squares line removed
     truth["profile"] = (s[:, 0], height)
