@@ -15,22 +15,22 @@ import functools
 import sys
 import tempfile
 from collections.abc import Callable, Iterator
-from contextlib import ExitStack
+from contextlib import AbstractContextManager, ExitStack
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, TextIO
 
 from . import inposition  # noqa: F401 - registers the in-position message handlers
-from .engine import RunEngine, RunOutcome
+from .engine import RunEngine, RunOutcome, Subscriber
 from .errors import SetupError, UserError
-from .live import LiveProfile
+from .live import HeightCallback, LiveProfile
 from .operators import AutoOperator, Operator, TerminalOperator
 from .plans.positioning import positioning_plan, positioning_resume_point
 from .plans.straightness import ResumePoint, resume_point, straightness_plan
 from .positioning_setup import PositioningSetup, positioning_setup_from_dict
 from .rig import open_controller_rig, open_rig
 from .runstore import RunStore
-from .setup import DeviceSetup, StraightnessSetup, straightness_setup_from_run
+from .setup import DeviceSetup, StraightnessSetup, straightness_setup_from_dict, straightness_setup_from_run
 from .simulation import (
     SimulatedMachine,
     SimulatedRig,
@@ -76,6 +76,15 @@ def _record_devices(store: RunStore, rig: Any, simulate: SimOptions | None, *, r
 def _print_outcome(outcome: RunOutcome, store: RunStore, out: Path, stream: TextIO) -> None:
     print(f"run {outcome.exit_status}: {store.points_written} points in {out}"
           + (f" ({outcome.reason})" if outcome.reason else ""), file=stream)
+
+
+EngineHook = Callable[[RunEngine], AbstractContextManager[Any]]
+"""Called with the engine (its rig open) before the run starts; the context it returns is held for the
+run and left before the devices close (the TUI: live readings, pause/abort from the UI thread)."""
+
+
+def _engine_context(hook: EngineHook | None, engine: RunEngine) -> AbstractContextManager[Any]:
+    return hook(engine) if hook is not None else contextlib.nullcontext()
 
 
 @dataclass(frozen=True)
@@ -163,10 +172,15 @@ def run_straightness(
     stream: TextIO = sys.stdout,
     stdin: TextIO = sys.stdin,
     operator: Operator | None = None,
+    subscribers: tuple[Subscriber, ...] = (),
+    on_engine: EngineHook | None = None,
+    on_height: HeightCallback | None = None,
 ) -> AcquireResult:
     """Acquire (or resume) a straightness run into ``out``; progress goes to ``stream``.
 
-    ``operator`` overrides the operator chosen by ``auto`` (tests and the TUI).
+    ``operator`` overrides the operator chosen by ``auto`` (tests and the TUI); ``subscribers`` get the
+    engine's documents after the run store; ``on_engine``: see :data:`EngineHook`; ``on_height`` gets
+    every live surface height (pass, station, um) as well.
     """
     out = Path(out)
     store, setup, rp = _open_store(setup, out, resume)
@@ -213,11 +227,14 @@ def run_straightness(
             operator = _operator(operator, actions, auto, stdin, stream)
             def show(p: int, k: int, h: float) -> None:
                 print(f"  live: station {k}{' (return)' if p else ''} surface height {h:+.3f} um", file=stream)
+                if on_height is not None:
+                    on_height(p, k, h)
 
             first = store.loaded_points[0] if rp is not None and store.loaded_points else None
             live = LiveProfile(setup.geometry, show, first)
-            engine = RunEngine(rig, operator, (store, live))
-            outcome = engine.run(straightness_plan(setup, {}, resume=rp))
+            engine = RunEngine(rig, operator, (store, live, *subscribers))
+            with _engine_context(on_engine, engine):
+                outcome = engine.run(straightness_plan(setup, {}, resume=rp))
         finally:
             rig.close()
     finally:
@@ -247,11 +264,14 @@ def run_positioning(
     stream: TextIO = sys.stdout,
     stdin: TextIO = sys.stdin,
     operator: Operator | None = None,
+    subscribers: tuple[Subscriber, ...] = (),
+    on_engine: EngineHook | None = None,
 ) -> PositioningResult:
     """Acquire (or resume) an ISO 230-2 positioning run into ``out``.
 
     ``setup_source`` is the set-up file's TOML structure, kept in run.json so a resume rebuilds
-    exactly the same set-up (targets included).
+    exactly the same set-up (targets included).  ``operator``, ``subscribers``, ``on_engine``: as for
+    :func:`run_straightness`.
     """
     out = Path(out)
     rp = None
@@ -295,11 +315,30 @@ def run_positioning(
             _record_devices(store, rig, simulate, resumed=rp is not None)
             actions = {"cycle_start": sim.cycle_start} if sim is not None else {}
             operator = _operator(operator, actions, auto, stdin, stream)
-            engine = RunEngine(rig, operator, (store,))
-            outcome = engine.run(positioning_plan(setup, {}, resume=rp))
+            engine = RunEngine(rig, operator, (store, *subscribers))
+            with _engine_context(on_engine, engine):
+                outcome = engine.run(positioning_plan(setup, {}, resume=rp))
         finally:
             rig.close()
     finally:
         cleanup.close()
     _print_outcome(outcome, store, out, stream)
     return PositioningResult(out, outcome, setup, sim, tuple(engine.faults))
+
+
+def acquire(kind: str, source: dict[str, Any] | None, source_name: str, out: Path | str, *,
+            simulate: SimOptions | None = None, auto: bool = False, resume: bool = False,
+            **kwargs: Any) -> AcquireResult | PositioningResult:
+    """Acquire (or resume) a run of ``kind`` from a set-up's TOML structure ``source`` (None: resume
+    with the set-up stored in the run): ``guideway acquire`` and the TUI both start runs here.
+
+    ``kwargs`` go to :func:`run_straightness` / :func:`run_positioning` (operator, subscribers, ...).
+    """
+    if kind == "straightness":
+        setup = straightness_setup_from_dict(source, source_name) if source is not None else None
+        return run_straightness(setup, out, simulate=simulate, auto=auto, resume=resume, **kwargs)
+    if kind != "positioning":
+        raise SetupError(f"unknown run kind {kind!r}; use straightness or positioning")
+    psetup = positioning_setup_from_dict(source, source_name) if source is not None else None
+    return run_positioning(psetup, out, simulate=simulate, auto=auto, resume=resume, setup_source=source,
+                           **kwargs)

@@ -72,7 +72,8 @@ def wait_in_position(engine: RunEngine, msg: WaitInPosition) -> InPositionEvent 
             return ev
         if time.monotonic() > deadline:
             return None
-        time.sleep(msg.poll_s)
+        with engine.idle():  # a live reader may use the controller between polls
+            time.sleep(msg.poll_s)
     return None
 
 

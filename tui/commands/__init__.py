@@ -21,6 +21,7 @@ COMMAND_MODULES = (
     "sim",
     "devices",
     "report",
+    "tui",
 )
 
 

@@ -8,8 +8,7 @@ from pathlib import Path
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.export import ExportOptions, export_run, format_comparison
-    from acquisition.runstore import write_text_atomic
+    from acquisition.export import ExportOptions, export_run, format_comparison, write_export
 
     options = ExportOptions(
         fmt=args.format, model=args.model, mode=args.mode, step=args.step, tolerance=args.tolerance,
@@ -21,17 +20,17 @@ def run(args: argparse.Namespace) -> int:
         siemens_axis=args.siemens_axis, siemens_encoder=args.siemens_encoder, siemens_modulo=args.siemens_modulo,
         siemens_max_points=args.siemens_max_points,
     )
-    run_, export = export_run(args.run_dir, options)
-    for w in run_.warnings:
-        print(f"guideway: warning: {w}", file=sys.stderr)
     to_stdout = args.out is not None and str(args.out) == "-"
     info = sys.stderr if to_stdout else sys.stdout
     if to_stdout:
+        run_, export = export_run(args.run_dir, options)
+        for w in run_.warnings:
+            print(f"guideway: warning: {w}", file=sys.stderr)
         sys.stdout.write(export.text)
     else:
-        out = args.out or (run_.path / "results" / f"compensation-{args.format}{export.suffix}")
-        out.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(out, export.text)
+        run_, export, out = write_export(args.run_dir, options, args.out)
+        for w in run_.warnings:
+            print(f"guideway: warning: {w}", file=sys.stderr)
         print(f"{args.format} table ({len(export.table)} points, model {args.model}) written to {out}", file=info)
     for note in export.notes:
         print(note, file=info)
