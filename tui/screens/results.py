@@ -69,12 +69,16 @@ def positioning_summary(d: dict[str, Any]) -> str:
 class ResultsScreen(Screen):
     SCREEN_NAME = "Results"
     SUB_TITLE = SCREEN_NAME
-    BINDINGS = [Binding("h", "report", "HTML report"), Binding("w", "write", "write results/"),
-                Binding("m", "method", "decoupling method"), Binding("u", "uncertainty", "uncertainty"),
-                Binding("k", "coverage", "coverage k"), Binding("e", "edition", "ISO edition"),
-                Binding("c", "model", "comp. model"),
-                Binding("1", "export('linuxcnc')", "LinuxCNC"), Binding("2", "export('fanuc')", "Fanuc"),
-                Binding("3", "export('siemens')", "Siemens"), Binding("4", "export('csv')", "CSV"),
+    BINDINGS = [Binding("h", "report", "report"), Binding("w", "write", "results/", show=False),
+                Binding("m", "method", "decoupling method", show=False),
+                Binding("u", "uncertainty", "Monte Carlo trials", show=False),
+                Binding("k", "coverage", "coverage factor k", show=False),
+                Binding("e", "edition", "ISO 230-2 edition", show=False),
+                Binding("c", "model", "compensation model", show=False),
+                Binding("1", "export('linuxcnc')", "LinuxCNC table", show=False),
+                Binding("2", "export('fanuc')", "Fanuc table", show=False),
+                Binding("3", "export('siemens')", "Siemens table", show=False),
+                Binding("4", "export('csv')", "CSV table", show=False),
                 Binding("f3", "app.runs", "runs"), Binding("f2", "app.setup", "set-up")]
 
     def __init__(self, run_dir: Path, note: str = "") -> None:
@@ -209,14 +213,15 @@ class ResultsScreen(Screen):
 
 def straightness_plot(d: dict[str, Any]) -> PlotData:
     pts = [(p["x_mm"], p["height_um"]) for p in d["profile"]]
-    series = [Series(pts, "cyan", "profile", join=True)]
+    series = []
     if pts:
         x0, x1 = pts[0][0], pts[-1][0]
         for name, line in d.get("reference_lines", {}).items():
             s, c = line["slope_um_per_mm"], line["intercept_um"]
             series.append(Series([(x0, c + s * x0), (x1, c + s * x1)], LINE_STYLES.get(name, "white"), name,
                                  join=True))
-    return PlotData(series, x_label="x (mm) · profile cyan, end-point yellow, LSQ green, min. zone magenta",
+    series.append(Series(pts, "bold cyan", "profile", join=True))  # drawn last: on top of the lines
+    return PlotData(series, x_label="x mm: profile cyan; lines end-pt yellow, LSQ green, MZ magenta",
                     y_label="um")
 
 
