@@ -107,10 +107,9 @@ def test_device_fault_shows_the_dialog_and_retry_loses_no_point(tmp_path: Path, 
         app = app_for(source, out, faults=faults, live_interval_s=3600.0)
         async with app.run_test(size=(80, 24)) as pilot:
             await pilot.press("f5")
-            session = None
+            await wait_for_app(pilot, lambda: app.session is not None, what="the session")
+            session = app.session
             while True:
-                await wait_for_app(pilot, lambda: app.session is not None, what="the session")
-                session = app.session
                 await wait_for_app(pilot, lambda: session.view.question is not None or not session.active,
                                    what="a question")
                 q = session.view.question
