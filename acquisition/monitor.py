@@ -62,17 +62,20 @@ class LiveMonitor:
     ``stream``: read a streaming sensor as blocks (default); ``restore_output``: the ILD1420 output
     mode set again after a stream block (the engine reads the streaming head with ``read_once``,
     which needs ``RS422``; None leaves the output off, for benchmarks that count every frame sent).
-    ``interferometer``: trigger a controller capture with each reading.
+    ``interferometer_interval_s``: a controller capture (a triggered measurement, slower than a sensor
+    value) at most this often; the readings in between carry the last one (None: no captures).
     """
 
-    def __init__(self, rig: Rig, on_reading: ReadingCallback, *, interval_s: float = 0.1, stream: bool = True,
-                 restore_output: str | None = "RS422", interferometer: bool = True) -> None:
+    def __init__(self, rig: Rig, on_reading: ReadingCallback, *, interval_s: float = 0.05, stream: bool = True,
+                 restore_output: str | None = "RS422", interferometer_interval_s: float | None = 0.25) -> None:
         self.rig = rig
         self.on_reading = on_reading
         self.interval_s = interval_s
         self.stream = stream
         self.restore_output = restore_output
-        self.interferometer = interferometer
+        self.interferometer_interval_s = interferometer_interval_s
+        self._ifm: InterferometerReading | None = None
+        self._ifm_time = -math.inf
         self.readings = 0
         self.frames_received = 0  # streamed sensor values handed out (all blocks)
         self.frames_lost = 0
@@ -117,12 +120,16 @@ class LiveMonitor:
         self.on_reading(reading)
 
     def _interferometer(self) -> tuple[InterferometerReading | None, str]:
-        if not self.interferometer:
-            return None, ""
+        every = self.interferometer_interval_s
+        if every is None or time.monotonic() - self._ifm_time < every:
+            return self._ifm, ""
+        self._ifm_time = time.monotonic()
         try:
-            return self.rig.trigger_and_read(), ""
+            self._ifm = self.rig.trigger_and_read()
         except DriverError as exc:
+            self._ifm = None
             return None, f"interferometer: {exc}"
+        return self._ifm, ""
 
     def _polled(self) -> LiveReading:
         problems = []

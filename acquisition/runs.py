@@ -8,8 +8,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .runstore import FORMAT
-
 
 @dataclass(frozen=True)
 class RunSummary:
@@ -32,6 +30,8 @@ class RunSummary:
 
 def run_summary(run_dir: Path) -> RunSummary:
     """Summary of ``run_dir`` from its run.json (never raises for a bad file: ``problem`` says why)."""
+    from .runstore import FORMAT  # pandas only now: the run browser's first paint does not wait for it
+
     try:
         meta: Any = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:

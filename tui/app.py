@@ -10,31 +10,36 @@ from __future__ import annotations
 
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from textual.app import App
 from textual.binding import Binding
 
-from acquisition.acquire import SimOptions
-from acquisition.live import LiveProfile
 from acquisition.messages import Instruct, Prompt
-from acquisition.positioning_setup import PositioningSetup, positioning_setup_from_dict
-from acquisition.runstore import load_run
-from acquisition.setup import StraightnessSetup, straightness_setup_from_run
-from acquisition.setup_file import setup_from_dict
 
 from .messages import HeightArrived, LiveReadingArrived, LogLine, OperatorQuestion, RunDocument, RunEnded
 from .screens.dialogs import ConfirmScreen, HelpScreen, QuestionScreen
-from .screens.results import ResultsScreen
-from .screens.run import CaptureScreen, ConnectScreen, RunScreen
 from .screens.runs import RunsScreen
 from .screens.setup import SetupScreen
-from .session import RunPlanInfo, RunSession, positioning_deviation
+
+# The acquisition stack (numpy, pandas, scipy, pymodbus, the simulation) is imported when a run starts
+# or results are opened, not before the first frame (benchmarks/bench_tui_first_frame.py).
+if TYPE_CHECKING:
+    from acquisition.acquire import SimOptions
+    from acquisition.positioning_setup import PositioningSetup
+    from acquisition.setup import StraightnessSetup
+
+    from .screens.run import RunScreen
+    from .session import RunPlanInfo, RunSession
 
 QUIT_WAIT_S = 10.0  # after quit was confirmed, the run has this long to close its files
 
 
 def plan_info(setup: StraightnessSetup | PositioningSetup, points_before: int = 0) -> RunPlanInfo:
+    from acquisition.setup import StraightnessSetup
+
+    from .session import RunPlanInfo
+
     if isinstance(setup, StraightnessSetup):
         return RunPlanInfo("straightness", len(setup.steps()), setup.stations, "mm", setup.return_pass,
                            setup.warmup.enabled, setup.block_length_mm, points_before)
@@ -51,14 +56,14 @@ class GuidewayApp(App[None]):
     def __init__(self, *, setup_source: dict[str, Any] | None = None, setup_path: Path | None = None,
                  out: Path | None = None, runs_dir: Path = Path("runs"), simulate: bool = False, seed: int = 0,
                  noise: bool = True, faults: str | None = None, start: str = "setup",
-                 live_interval_s: float = 0.1) -> None:
+                 live_interval_s: float = 0.05) -> None:
         super().__init__()
         self.setup_source = setup_source
         self.setup_path = setup_path
         self.out = out
         self.runs_dir = Path(runs_dir)
         self.simulate = simulate
-        self.sim_options = SimOptions(seed, noise, faults)
+        self.sim_args = (seed, noise, faults)
         self.start = start
         self.live_interval_s = live_interval_s
         self.session: RunSession | None = None
@@ -93,7 +98,15 @@ class GuidewayApp(App[None]):
         if not isinstance(self.screen, HelpScreen | QuestionScreen):
             self.push_screen(HelpScreen(self.screen, list(self.BINDINGS)))
 
+    @property
+    def sim_options(self) -> SimOptions:
+        from acquisition.acquire import SimOptions
+
+        return SimOptions(*self.sim_args)
+
     def open_results(self, run_dir: Path, note: str = "") -> None:
+        from .screens.results import ResultsScreen
+
         self._switch(ResultsScreen(run_dir, note))
 
     @property
@@ -103,6 +116,11 @@ class GuidewayApp(App[None]):
     # -- runs ---------------------------------------------------------------------------------------
     def start_run(self, source: dict[str, Any], out: Path | None, *, simulate: bool,
                   source_name: str = "set-up") -> None:
+        from acquisition.setup_file import setup_from_dict
+
+        from .screens.run import ConnectScreen
+        from .session import RunSession
+
         setup = setup_from_dict(source, source_name)
         info = plan_info(setup)
         if out is None:
@@ -113,6 +131,14 @@ class GuidewayApp(App[None]):
 
     def resume_run(self, run_dir: Path) -> None:
         """Continue an aborted or crashed run after its last point on disk (the capture screen)."""
+        from acquisition.live import LiveProfile
+        from acquisition.positioning_setup import positioning_setup_from_dict
+        from acquisition.runstore import load_run
+        from acquisition.setup import straightness_setup_from_run
+
+        from .screens.run import CaptureScreen
+        from .session import RunSession, positioning_deviation
+
         try:
             run = load_run(run_dir)
             if run.kind == "straightness":
@@ -158,6 +184,8 @@ class GuidewayApp(App[None]):
 
     def on_operator_question(self, message: OperatorQuestion) -> None:
         self._apply(message)
+        from .screens.run import CaptureScreen, ConnectScreen
+
         q = message.question
         if isinstance(q, Prompt):
             self._ask(q, message.ticket)
@@ -188,9 +216,11 @@ class GuidewayApp(App[None]):
         if self.session is None:
             return
         self.session.apply(message)
+        if not self.screen_stack:  # shutting down
+            return
         screen = self.screen if not isinstance(self.screen, QuestionScreen | HelpScreen | ConfirmScreen) \
             else self.screen_stack[-2] if len(self.screen_stack) > 1 else None
-        if isinstance(screen, RunScreen):
+        if screen is not None and hasattr(screen, "refresh_view"):  # a run screen
             screen.refresh_view()
 
     def _ask(self, prompt: Prompt, ticket: int) -> None:

@@ -10,13 +10,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from textual.message import Message
 
-from acquisition.engine import RunOutcome
-from acquisition.messages import Instruct, Prompt
-from acquisition.monitor import LiveReading
+if TYPE_CHECKING:  # the app's first frame does not wait for the acquisition stack
+    from acquisition.engine import RunOutcome
+    from acquisition.messages import Instruct, Prompt
+    from acquisition.monitor import LiveReading
 
 
 @dataclass

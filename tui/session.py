@@ -102,7 +102,7 @@ class RunSession:
 
     def __init__(self, post: Post, info: RunPlanInfo, source: dict[str, Any] | None, out: Path, *,
                  simulate: SimOptions | None, resume: bool = False, source_name: str = "set-up",
-                 live_interval_s: float = 0.1) -> None:
+                 live_interval_s: float = 0.05) -> None:
         self.post = post
         self.info = info
         self.source = source

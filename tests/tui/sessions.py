@@ -35,6 +35,12 @@ def screen_name(app: Any) -> str:
     return type(app.screen).__name__
 
 
+async def press_start(pilot: Any, app: Any) -> None:
+    """F5 once the set-up form is ready (it is built after the first frame)."""
+    await wait_for_app(pilot, lambda: getattr(app.screen, "ready", False), what="the set-up form")
+    await pilot.press("f5")
+
+
 async def answer_all(pilot: Any, app: Any, prompts: dict[str, str] | None = None, *, stop_after: int | None = None,
                      timeout_s: float = 60.0) -> int:
     """Answer every question of the running session by key presses until the run ends (or ``stop_after``

@@ -20,6 +20,7 @@ from tests.tui.sessions import (
     STRAIGHTNESS,
     answer_all,
     assert_same_points,
+    press_start,
     process_json,
     screen_name,
     widget_text,
@@ -47,7 +48,7 @@ def test_straightness_session_with_return_pass_equals_the_automatic_run(tmp_path
     async def session() -> None:
         app = app_for(STRAIGHTNESS, out)
         async with app.run_test(size=(80, 24)) as pilot:
-            await pilot.press("f5")
+            await press_start(pilot, app)
             await wait_for_app(pilot, lambda: screen_name(app) == "ConnectScreen", what="connect screen")
             steps = await answer_all(pilot, app)
             # datum placement, stations 1-3 forward, then the return pass 3, 2, 1, 0 (it starts where the
@@ -78,7 +79,7 @@ def test_linear_positioning_session_equals_the_automatic_run(tmp_path: Path) -> 
     async def session() -> None:
         app = app_for(POSITIONING, out)
         async with app.run_test(size=(80, 24)) as pilot:
-            await pilot.press("f5")
+            await press_start(pilot, app)
             await wait_for_app(pilot, lambda: screen_name(app) == "ConnectScreen", what="connect screen")
             assert await answer_all(pilot, app) == 2  # datum, cycle start; the PLC signals every target
             await wait_for_app(pilot, lambda: screen_name(app) == "ResultsScreen", what="results")
@@ -106,7 +107,7 @@ def test_device_fault_shows_the_dialog_and_retry_loses_no_point(tmp_path: Path, 
         # live readings off (hour-long interval): the injected fault must meet the engine, not the monitor
         app = app_for(source, out, faults=faults, live_interval_s=3600.0)
         async with app.run_test(size=(80, 24)) as pilot:
-            await pilot.press("f5")
+            await press_start(pilot, app)
             await wait_for_app(pilot, lambda: app.session is not None, what="the session")
             session = app.session
             while True:
@@ -142,7 +143,7 @@ def test_quit_mid_run_then_resume_from_the_runs_screen_completes_the_run(tmp_pat
     async def first() -> None:
         app = app_for(source, out)
         async with app.run_test(size=(80, 24)) as pilot:
-            await pilot.press("f5")
+            await press_start(pilot, app)
             await wait_for_app(pilot, lambda: app.session is not None, what="the session")
             await answer_all(pilot, app, stop_after=3)  # datum, stations 1 and 2
             await wait_for_app(pilot, lambda: app.session.view.points == 3, what="three points on disk")

@@ -11,15 +11,18 @@ from pathlib import Path
 
 def run(args: argparse.Namespace) -> int:
     from acquisition.errors import SetupError
-    from acquisition.setup import read_toml
-    from acquisition.setup_file import setup_kind
-    from acquisition.simulation import parse_faults
 
     if args.faults and not args.simulate:
         raise SetupError("--faults needs --simulate (faults are injected into the simulated devices)")
-    parse_faults(args.faults)  # a bad spec fails here, not in the middle of the screen
+    if args.faults:
+        from acquisition.simulation import parse_faults
+
+        parse_faults(args.faults)  # a bad spec fails here, not in the middle of the screen
     source = None
-    if args.setup is not None:
+    if args.setup is not None:  # (the loaders are imported only with a file: the first frame comes sooner)
+        from acquisition.setup import read_toml
+        from acquisition.setup_file import setup_kind
+
         source = read_toml(args.setup)
         setup_kind(source)
     from tui.app import GuidewayApp  # Textual only now: the rest of the command line never loads it

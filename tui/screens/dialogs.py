@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Vertical
 from textual.screen import ModalScreen, Screen
 from textual.widgets import Static
 
-from acquisition.messages import Prompt
+if TYPE_CHECKING:
+    from acquisition.messages import Prompt
 
 TITLES = {
     "fault": "Device fault", "invalid": "Invalid reading", "jump": "Jump between stations",

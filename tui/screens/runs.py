@@ -9,7 +9,7 @@ from textual.binding import Binding
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Static
 
-from acquisition.runs import RunSummary, list_runs
+from acquisition.runs import RunSummary, list_runs  # json only: the browser paints at once
 
 
 class RunsScreen(Screen):

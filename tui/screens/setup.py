@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from textual import on
+from textual import on, work
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical, VerticalScroll
@@ -22,11 +22,9 @@ from textual.screen import Screen
 from textual.widgets import Checkbox, Footer, Header, Input, RadioButton, RadioSet, Select, Static
 
 from acquisition.errors import SetupError
-from acquisition.rig import SENSOR_DRIVERS
-from acquisition.runstore import write_text_atomic
-from acquisition.setup import read_toml
-from acquisition.setup_file import setup_from_dict, setup_toml_text
-from acquisition.simulation import default_block
+
+# The set-up loaders (and the drivers, numpy, pymodbus behind them) are imported in a worker after the
+# first frame (SetupScreen.prepare): the screen paints at once and its fields appear when they can be checked.
 
 RUN_KINDS = (("straightness", "gauge-block straightness"), ("linear", "linear positioning"),
              ("rotary", "rotary positioning"))
@@ -58,7 +56,7 @@ class Field:
         return f"f-{self.table or 'top'}-{self.key}"
 
 
-def straightness_fields() -> list[tuple[str, list[Field]]]:
+def straightness_fields(protocols: tuple[str, ...]) -> list[tuple[str, list[Field]]]:
     return [
         ("Run", [Field("", "machine", "machine", "str"), Field("", "axis", "axis", "str"),
                  Field("", "operator", "operator", "str")]),
@@ -73,7 +71,7 @@ def straightness_fields() -> list[tuple[str, list[Field]]]:
             Field("geometry", "sensor_beam", "beam direction", "vec", aliases=("beam",)),
             Field("geometry", "sensor_sign", "sensor sign", "choice", ("height", "gap"))]),
         ("Devices", [
-            Field("sensor", "protocol", "sensor protocol", "choice", tuple(SENSOR_DRIVERS)),
+            Field("sensor", "protocol", "sensor protocol", "choice", protocols),
             Field("sensor", "port", "sensor port", "str", placeholder="/dev/ttyUSB0"),
             Field("sensor", "baud", "sensor baud", "optint", placeholder="protocol's own rate"),
             Field("controller", "url", "controller URL", "str", placeholder="modbus-tcp://192.168.0.10:502"),
@@ -120,6 +118,8 @@ def positioning_fields(unit: str) -> list[tuple[str, list[Field]]]:
 def default_source(run_kind: str) -> dict[str, Any]:
     """A new set-up of ``run_kind`` (straightness: the default simulated block, as in docs/setup-straightness.toml)."""
     if run_kind == "straightness":
+        from acquisition.simulation import default_block
+
         length, geo = default_block()
         return {"kind": "straightness", "machine": "", "axis": "X", "operator": "",
                 "block": {"length_mm": length, "stations": 20, "samples_per_reading": 5, "return_pass": False},
@@ -176,12 +176,13 @@ class SetupScreen(Screen):
     def __init__(self, source: dict[str, Any] | None = None, *, setup_path: Path | None = None,
                  out: Path | None = None, simulate: bool = False) -> None:
         super().__init__()
-        self.source = copy.deepcopy(source) if source is not None else default_source("straightness")
+        self.source: dict[str, Any] = copy.deepcopy(source) if source is not None else {}
         self.setup_path = setup_path
         self.out = out
         self.simulate = simulate
         self.problem: str | None = "not checked yet"
-        self._building = False
+        self._building = True  # until prepare() has loaded the set-up checks
+        self.protocols: tuple[str, ...] = ()
 
     # -- layout ---------------------------------------------------------------------------------
     def compose(self) -> ComposeResult:
@@ -200,11 +201,33 @@ class SetupScreen(Screen):
             with RadioSet(id="run-kind"):
                 for value, label in RUN_KINDS:
                     yield RadioButton(label, value == kind, name=value)
-            yield Vertical(id="fields")
+            yield Vertical(Static("loading the set-up checks...", classes="section"), id="fields")
         yield Static("", id="setup-status")
         yield Footer()
 
     def on_mount(self) -> None:
+        self.prepare()
+
+    @property
+    def ready(self) -> bool:
+        """The form is built and checked (F5 can start a run)."""
+        return not self._building
+
+    @work(thread=True, exit_on_error=False)
+    def prepare(self) -> None:
+        """Import the set-up loaders (seconds on a slow machine) off the UI thread, then build the form."""
+        import acquisition.setup_file  # noqa: F401 - loaded here, used by check()
+        from acquisition.rig import SENSOR_DRIVERS
+
+        source = self.source or default_source("straightness")
+        self.app.call_from_thread(self._prepared, tuple(SENSOR_DRIVERS), source)
+
+    def _prepared(self, protocols: tuple[str, ...], source: dict[str, Any]) -> None:
+        self.protocols, self.source = protocols, source
+        radios = self.query_one("#run-kind", RadioSet)
+        kind = run_kind_of(self.source)
+        for b in radios.query(RadioButton):
+            b.value = b.name == kind
         self.build_fields()
 
     def fields(self) -> list[Field]:
@@ -213,7 +236,7 @@ class SetupScreen(Screen):
     def groups(self) -> list[tuple[str, list[Field]]]:
         kind = run_kind_of(self.source)
         if kind == "straightness":
-            return straightness_fields()
+            return straightness_fields(self.protocols)
         return positioning_fields("deg" if kind == "rotary" else "mm")
 
     def build_fields(self) -> None:
@@ -259,7 +282,8 @@ class SetupScreen(Screen):
                 table[f.key] = widget.value
                 continue
             if isinstance(widget, Select):
-                table[f.key] = widget.value
+                if widget.value in f.choices:  # (blank for a moment after mounting: keep the set-up's value)
+                    table[f.key] = widget.value
                 continue
             text = widget.value.strip()
             try:
@@ -295,6 +319,8 @@ class SetupScreen(Screen):
 
     def check(self) -> bool:
         """Read the form, validate with the loader; show each message next to its field."""
+        from acquisition.setup_file import setup_from_dict
+
         if self._building:
             return False
         for err in self.query(".error"):
@@ -343,7 +369,7 @@ class SetupScreen(Screen):
     @on(RadioSet.Changed, "#run-kind")
     def _kind(self, event: RadioSet.Changed) -> None:
         kind = event.pressed.name or "straightness"
-        if kind == run_kind_of(self.source):
+        if not self.protocols or kind == run_kind_of(self.source):
             return
         keep = {k: self.source.get(k, "") for k in ("machine", "operator")}
         self.source = {**default_source(kind), **keep}
@@ -358,6 +384,8 @@ class SetupScreen(Screen):
         return Path(text)
 
     def action_load(self) -> None:
+        from acquisition.setup import read_toml
+
         path = self._path()
         if path is None:
             return
@@ -377,6 +405,9 @@ class SetupScreen(Screen):
         self.build_fields()
 
     def action_save(self) -> None:
+        from acquisition.runstore import write_text_atomic
+        from acquisition.setup_file import setup_toml_text
+
         path = self._path()
         if path is None:
             return
@@ -389,8 +420,11 @@ class SetupScreen(Screen):
         self.notify(f"set-up saved to {path}")
 
     def action_start(self) -> None:
+        if self._building:
+            self.notify("the set-up form is still loading", severity="warning")
+            return
         if not self.check():
-            self.notify("the set-up is not valid; see the message below the form", severity="error")
+            self.notify(f"the set-up is not valid: {self.problem}", severity="error")
             return
         out = self.query_one("#run-dir", Input).value.strip()
         self.app.start_run(copy.deepcopy(self.source), Path(out) if out else None,  # type: ignore[attr-defined]
