@@ -27,7 +27,8 @@ def _in_repository(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def app(**kw) -> GuidewayApp:
-    return GuidewayApp(runs_dir=RUNS, **kw)
+    """The app, starting on the (light) Runs screen unless told otherwise; run_before shows the screen under test."""
+    return GuidewayApp(runs_dir=RUNS, **{"start": "runs", **kw})
 
 
 def show(make_screen, modal=None):  # noqa: ANN001, ANN201
@@ -43,6 +44,12 @@ def show(make_screen, modal=None):  # noqa: ANN001, ANN201
     return run_before
 
 
+async def setup_ready(pilot) -> None:  # noqa: ANN001
+    """The set-up form is built after the first frame: snapshot it once it is there and checked."""
+    await wait_for_app(pilot, lambda: getattr(pilot.app.screen, "ready", False), what="the set-up form")
+    await pilot.pause()
+
+
 def results(run: str):  # noqa: ANN201
     async def run_before(pilot) -> None:  # noqa: ANN001
         pilot.app.open_results(RUNS / run)
@@ -55,13 +62,15 @@ def results(run: str):  # noqa: ANN201
 
 @pytest.mark.parametrize("size", SIZES)
 def test_setup_straightness(snap_compare, size) -> None:  # noqa: ANN001
-    assert snap_compare(app(setup_source=STRAIGHTNESS, simulate=True), terminal_size=size)
+    assert snap_compare(app(setup_source=STRAIGHTNESS, simulate=True, start="setup"), terminal_size=size,
+                        run_before=setup_ready)
 
 
 @pytest.mark.parametrize("size", SIZES)
 def test_setup_positioning_with_a_wrong_field(snap_compare, size) -> None:  # noqa: ANN001
     source = {**POSITIONING, "axis": {**POSITIONING["axis"], "runs": 0}}
-    assert snap_compare(app(setup_source=source, setup_path=Path("docs/setup-positioning.toml")), terminal_size=size)
+    setup = app(setup_source=source, setup_path=Path("docs/setup-positioning.toml"), start="setup")
+    assert snap_compare(setup, terminal_size=size, run_before=setup_ready)
 
 
 @pytest.mark.parametrize("size", SIZES)
@@ -114,4 +123,4 @@ def test_results_positioning(snap_compare, size) -> None:  # noqa: ANN001
 
 @pytest.mark.parametrize("size", SIZES)
 def test_runs(snap_compare, size) -> None:  # noqa: ANN001
-    assert snap_compare(app(start="runs"), terminal_size=size)
+    assert snap_compare(app(), terminal_size=size)

@@ -221,7 +221,7 @@ def straightness_plot(d: dict[str, Any]) -> PlotData:
             series.append(Series([(x0, c + s * x0), (x1, c + s * x1)], LINE_STYLES.get(name, "white"), name,
                                  join=True))
     series.append(Series(pts, "bold cyan", "profile", join=True))  # drawn last: on top of the lines
-    return PlotData(series, x_label="x mm: profile cyan; lines end-pt yellow, LSQ green, MZ magenta",
+    return PlotData(series, x_label="x mm · profile cyan · lines: end-point yellow, LSQ green, min. zone magenta",
                     y_label="um")
 
 

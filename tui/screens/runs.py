@@ -31,7 +31,7 @@ class RunsScreen(Screen):
 
     def on_mount(self) -> None:
         table = self.query_one(DataTable)
-        table.add_columns("kind", "created (UTC)", "machine", "axis", "status", "points", "run")
+        table.add_columns("run", "kind", "created (UTC)", "status", "points", "machine", "axis")
         self.action_reload()
 
     def on_screen_resume(self) -> None:
@@ -43,8 +43,8 @@ class RunsScreen(Screen):
         table.clear()
         for r in self.runs:
             status = r.problem or r.status
-            table.add_row(r.kind or "?", r.created.replace("T", " ").removesuffix("Z"), r.machine, r.axis, status,
-                          str(r.points), r.path.name)
+            table.add_row(r.path.name, r.kind or "?", r.created.replace("T", " ").removesuffix("Z"), status,
+                          str(r.points), r.machine, r.axis)
         n = len(self.runs)
         self.query_one("#runs-title", Static).update(
             f"{n} run(s) in {self.runs_dir}" if n else f"no runs in {self.runs_dir} yet (F2: set up a run)")

@@ -103,7 +103,7 @@ class Plot(Widget):
                 out.append(chr(0x2800 + bits) if bits else " ", style=styles[r][c] or "")
             out.append("\n")
         left, right = _fmt(x0), _fmt(x1)
-        mid = self.data.x_label
+        mid = self.data.x_label[: max(0, w - len(left) - len(right) - 2)]
         gap = max(1, w - len(left) - len(right) - len(mid))
         out.append(" " * MARGIN + left + " " * (gap // 2) + mid + " " * (gap - gap // 2) + right, style="dim")
         return out
