@@ -117,7 +117,8 @@ def test_device_fault_shows_the_dialog_and_retry_loses_no_point(tmp_path: Path, 
                 if q is None:
                     break
                 if getattr(q, "key", "") == "fault":
-                    await wait_for_app(pilot, lambda: screen_name(app) == "QuestionScreen", what="fault dialog")
+                    await wait_for_app(pilot, lambda: screen_name(app) == "QuestionScreen"
+                                       and bool(app.screen.query("#dialog-title")), what="the fault dialog")
                     seen.append(widget_text(app, "#dialog-title") + ": " + widget_text(app, "#dialog-text"))
                     assert app.screen.query_one("#dialog").has_class("fault")  # drawn as a fault
                     await pilot.press("r")  # retry
