@@ -23,6 +23,7 @@ from ..widgets.readout import bar, interferometer_lines, readout_text, sensor_li
 
 STATE_TEXT = {
     "connecting": "[b yellow]CONNECTING[/b yellow] — opening the devices",
+    "connected": "[b green]CONNECTED[/b green] — the devices answer; follow the instruction",
     "drifting": "[b yellow]DRIFTING[/b yellow] — waiting for the drift to settle",
     "stable": "[b green]STABLE[/b green] — warm-up done, setting the datum",
     "overridden": "[b magenta]OVERRIDDEN[/b magenta] — warm-up overridden by the operator (recorded in the run)",
@@ -120,8 +121,9 @@ class ConnectScreen(RunScreen):
         v = self.session.view
         if not v.started:
             return "connecting"
-        return v.warmup.get("state", "drifting") if v.warmup else ("drifting" if self.session.info.warmup
-                                                                   else "stable")
+        if v.warmup:
+            return str(v.warmup.get("state", "drifting"))
+        return "connected"  # before the warm-up's first reading (the datum instruction), or no warm-up
 
     def refresh_view(self) -> None:
         v = self.session.view
