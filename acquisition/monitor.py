@@ -112,6 +112,8 @@ class LiveMonitor:
                     self._stream_blocks(sensor)
                 else:
                     self._emit(self._polled())
+            except Exception as exc:  # noqa: BLE001 - the live view says what broke and goes on; the run decides
+                self._emit(LiveReading(time.time(), problem=f"live reading failed: {exc!r}"))
             finally:
                 self.rig.lock.release()
 
