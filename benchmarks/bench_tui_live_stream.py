@@ -71,14 +71,19 @@ async def one_run(seconds: float, rate_khz: float) -> dict[str, float]:
             frames.clear()
             with monitor:
                 await asyncio.sleep(seconds)
+                t_stop = time.perf_counter()
             await pilot.pause()
     finally:
         rig.close()
         pacer.stop()
         endpoint.stop()
         sim.close()
+    frames = [t for t in frames if t <= t_stop]  # while the monitor streamed
     gaps = [b - a for a, b in zip(frames, frames[1:], strict=False)]
     reading_gaps = [b - a for a, b in zip(posted, posted[1:], strict=False)]
+    worst = max(range(len(reading_gaps)), key=reading_gaps.__getitem__)
+    print(f"  longest reading gap after reading {worst + 1} of {len(posted)}, "
+          f"{posted[worst] - posted[0]:.2f} s into the stream")
     return {"frames": len(frames), "median_gap": statistics.median(gaps), "max_gap": max(gaps),
             "p99_gap": sorted(gaps)[int(0.99 * (len(gaps) - 1))], "readings": len(posted),
             "max_reading_gap": max(reading_gaps),
