@@ -17,7 +17,7 @@ import functools
 import sys
 import tempfile
 from collections.abc import Callable, Iterator
-from contextlib import ExitStack
+from contextlib import AbstractContextManager, ExitStack
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, TextIO
@@ -25,9 +25,9 @@ from typing import Any, TextIO
 from drivers.modbus_link import parse_modbus_url
 
 from . import inposition  # noqa: F401 - registers the in-position message handlers
-from .engine import RunEngine, RunOutcome
+from .engine import RunEngine, RunOutcome, Subscriber
 from .errors import SetupError, UserError
-from .live import LiveDeviation, LiveProfile
+from .live import HeightCallback, LiveDeviation, LiveProfile
 from .operators import AutoOperator, Operator, TerminalOperator
 from .plans.positioning import positioning_plan, positioning_resume_point
 from .plans.straightness import ResumePoint, resume_point, straightness_plan
@@ -35,7 +35,7 @@ from .positioning_setup import PositioningSetup, positioning_setup_from_dict
 from .rig import open_controller_rig, open_rig
 from .runstore import RunStore
 from .scenario import Scenario, load_scenario
-from .setup import StraightnessSetup, straightness_setup_from_run
+from .setup import StraightnessSetup, straightness_setup_from_dict, straightness_setup_from_run
 from .simulation import (
     REQUESTS_PER_SAMPLE,
     SimulatedMachine,
@@ -107,6 +107,15 @@ def _report_faults(store: RunStore, plan: Any, stream: TextIO) -> None:
 def _print_outcome(outcome: RunOutcome, store: RunStore, out: Path, stream: TextIO) -> None:
     print(f"run {outcome.exit_status}: {store.points_written} points in {out}"
           + (f" ({outcome.reason})" if outcome.reason else ""), file=stream)
+
+
+EngineHook = Callable[[RunEngine], AbstractContextManager[Any]]
+"""Called with the engine (its rig open) before the run starts; the context it returns is held for the
+run and left before the devices close (the TUI: live readings, pause/abort from the UI thread)."""
+
+
+def _engine_context(hook: EngineHook | None, engine: RunEngine) -> AbstractContextManager[Any]:
+    return hook(engine) if hook is not None else contextlib.nullcontext()
 
 
 @dataclass(frozen=True)
@@ -225,11 +234,16 @@ def run_straightness(
     stdin: TextIO = sys.stdin,
     operator: Operator | None = None,
     hands_free: bool | None = None,
+    subscribers: tuple[Subscriber, ...] = (),
+    on_engine: EngineHook | None = None,
+    on_height: HeightCallback | None = None,
 ) -> AcquireResult:
     """Acquire (or resume) a straightness run into ``out``; progress goes to ``stream``.
 
-    ``operator`` overrides the operator chosen by ``auto`` (tests and the TUI).  ``hands_free``
-    (default: ``auto`` with real devices): wait at each station for the block instead of asking.
+    ``operator`` overrides the operator chosen by ``auto`` (tests and the TUI); ``subscribers`` get the
+    engine's documents after the run store; ``on_engine``: see :data:`EngineHook`; ``on_height`` gets
+    every live surface height (pass, station, um) as well.  ``hands_free`` (default: ``auto`` with real
+    devices): wait at each station for the block instead of asking.
     """
     out = Path(out)
     store, setup, rp = _open_store(setup, out, resume)
@@ -289,14 +303,17 @@ def run_straightness(
             operator = _operator(operator, actions, auto, stdin, stream)
             def show(p: int, k: int, h: float) -> None:
                 print(f"  live: station {k}{' (return)' if p else ''} surface height {h:+.3f} um", file=stream)
+                if on_height is not None:
+                    on_height(p, k, h)
 
             loaded = store.loaded_points if rp is not None else []
             first = loaded[0] if loaded else None
             first_step = next((r for r in loaded if int(r.get("pass", 0)) == 0
                                and int(r["station"]) == int(loaded[0]["station"]) + 1), None)
             live = LiveProfile(setup.geometry, show, first, first_step)
-            engine = RunEngine(rig, operator, (store, live))
-            outcome = engine.run(straightness_plan(setup, {}, resume=rp, hands_free=hands_free))
+            engine = RunEngine(rig, operator, (store, live, *subscribers))
+            with _engine_context(on_engine, engine):
+                outcome = engine.run(straightness_plan(setup, {}, resume=rp, hands_free=hands_free))
             if sim is not None:
                 _report_faults(store, sim.faults, stream)
         finally:
@@ -349,11 +366,14 @@ def run_positioning(
     stream: TextIO = sys.stdout,
     stdin: TextIO = sys.stdin,
     operator: Operator | None = None,
+    subscribers: tuple[Subscriber, ...] = (),
+    on_engine: EngineHook | None = None,
 ) -> PositioningResult:
     """Acquire (or resume) an ISO 230-2 positioning run into ``out``.
 
     ``setup_source`` is the set-up file's TOML structure, kept in run.json so a resume rebuilds
-    exactly the same set-up (targets included).
+    exactly the same set-up (targets included).  ``operator``, ``subscribers``, ``on_engine``: as for
+    :func:`run_straightness`.
     """
     out = Path(out)
     rp = None
@@ -406,8 +426,9 @@ def run_positioning(
             live = LiveDeviation(setup.axis_type, setup.environment.to_dict(),
                                  live_deviation_printer(stream, "arcsec" if setup.axis_type == "rotary" else "um"),
                                  first)
-            engine = RunEngine(rig, operator, (store, live))
-            outcome = engine.run(positioning_plan(setup, {}, resume=rp))
+            engine = RunEngine(rig, operator, (store, live, *subscribers))
+            with _engine_context(on_engine, engine):
+                outcome = engine.run(positioning_plan(setup, {}, resume=rp))
             if sim is not None:
                 _report_faults(store, sim.faults, stream)
         finally:
@@ -416,3 +437,21 @@ def run_positioning(
         cleanup.close()
     _print_outcome(outcome, store, out, stream)
     return PositioningResult(out, outcome, setup, sim, tuple(engine.faults), live)
+
+
+def acquire(kind: str, source: dict[str, Any] | None, source_name: str, out: Path | str, *,
+            simulate: SimOptions | None = None, auto: bool = False, resume: bool = False,
+            **kwargs: Any) -> AcquireResult | PositioningResult:
+    """Acquire (or resume) a run of ``kind`` from a set-up's TOML structure ``source`` (None: resume
+    with the set-up stored in the run): ``guideway acquire`` and the TUI both start runs here.
+
+    ``kwargs`` go to :func:`run_straightness` / :func:`run_positioning` (operator, subscribers, ...).
+    """
+    if kind == "straightness":
+        setup = straightness_setup_from_dict(source, source_name) if source is not None else None
+        return run_straightness(setup, out, simulate=simulate, auto=auto, resume=resume, **kwargs)
+    if kind != "positioning":
+        raise SetupError(f"unknown run kind {kind!r}; use straightness or positioning")
+    psetup = positioning_setup_from_dict(source, source_name) if source is not None else None
+    return run_positioning(psetup, out, simulate=simulate, auto=auto, resume=resume, setup_source=source,
+                           **kwargs)

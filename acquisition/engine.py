@@ -27,16 +27,22 @@ interrupted) the run pauses as above, and ``"retry"`` clears it again.
 
 Records go to subscribers as ``(name, document)`` pairs: ``start``, ``event``
 (one per record), ``annotate`` (run metadata), ``retract`` (a point withdrawn
-for a redo), ``state`` (every state change) and ``stop``.
+for a redo), ``state`` (every state change), ``progress`` (a plan's progress
+report for the display) and ``stop``.
+
+The engine holds the rig (``Rig.claim``) for the whole run except while it
+waits (an operator question, a ``Wait``, the pause between in-position polls):
+then a live reader (:mod:`acquisition.monitor`) may read the same devices.
 """
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import threading
 import time
 import uuid
-from collections.abc import Callable, Generator
+from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -51,9 +57,11 @@ from .messages import (
     Log,
     Message,
     OpenRun,
+    Progress,
     Prompt,
     ReadSensor,
     Record,
+    Requested,
     Retract,
     TriggerInterferometer,
     Wait,
@@ -139,6 +147,9 @@ class RunEngine:
         self.state_log: list[RunState] = [RunState.IDLE]
         self._abort_requested = threading.Event()
         self._pause_requested = threading.Event()
+        self._wake = threading.Event()  # ends a Wait early: an abort or an operator request
+        self._requests: set[str] = set()  # operator requests (request()), read by Requested messages
+        self._request_lock = threading.Lock()
         self._num_events = 0
         self._uid = ""
         self._started = False
@@ -155,6 +166,8 @@ class RunEngine:
             Retract: self._retract,
             Record: self._record,
             Log: lambda m: self.operator.log(m),
+            Progress: lambda m: self._emit("progress", {"uid": self._uid, "key": m.key, "data": dict(m.data)}),
+            Requested: self._requested,
             CloseRun: self._close_run,
         }
 
@@ -172,6 +185,7 @@ class RunEngine:
     def request_abort(self) -> None:
         """Ask the running plan to end early (thread-safe); data are kept."""
         self._abort_requested.set()
+        self._wake.set()
 
     @property
     def abort_requested(self) -> bool:
@@ -181,6 +195,29 @@ class RunEngine:
     def request_pause(self) -> None:
         """Pause at the next message (thread-safe); the operator is then asked to resume or abort."""
         self._pause_requested.set()
+
+    def request(self, key: str) -> None:
+        """The operator asks for ``key`` (thread-safe; e.g. ``"override"`` of a warm-up): the plan's next
+        ``Requested(key)`` answers True.  A ``Wait`` in progress ends early so the plan sees it soon."""
+        with self._request_lock:
+            self._requests.add(key)
+        self._wake.set()
+
+    def _requested(self, msg: Requested) -> bool:
+        with self._request_lock:
+            if msg.key in self._requests:
+                self._requests.discard(msg.key)
+                return True
+            return False
+
+    @contextlib.contextmanager
+    def idle(self) -> Iterator[None]:
+        """The engine waits: the rig is free for a live reader until the block ends (thread of the run)."""
+        self.rig.release()
+        try:
+            yield
+        finally:
+            self.rig.claim()
 
     def _emit(self, name: str, doc: dict[str, Any]) -> None:
         for sub in self._subscribers:
@@ -192,9 +229,10 @@ class RunEngine:
         self._pause_requested.clear()
         self._transition(RunState.PAUSED, reason)
         self.operator.log(Log(f"paused: {reason}"))
-        answer = self.operator.prompt(
-            Prompt(f"Run paused ({reason}). Resume the run, or abort it (data are kept)?",
-                   ("resume", "abort"), key="pause"))
+        with self.idle():
+            answer = self.operator.prompt(
+                Prompt(f"Run paused ({reason}). Resume the run, or abort it (data are kept)?",
+                       ("resume", "abort"), key="pause"))
         if answer == "abort" or self._abort_requested.is_set():
             raise _AbortRun(f"operator aborted while paused ({reason})")
         self._transition(RunState.RUNNING, "resumed")
@@ -234,10 +272,11 @@ class RunEngine:
         self._transition(RunState.PAUSED, fault)
         while True:
             self.operator.log(Log(f"device fault: {fault}"))
-            answer = self.operator.prompt(Prompt(
-                f"Device fault: {fault}. Check the device, its cable and power, then retry "
-                f"(the tool reconnects and repeats the step), or abort the run.",
-                ("retry", "abort"), key="fault", fault=fault))
+            with self.idle():
+                answer = self.operator.prompt(Prompt(
+                    f"Device fault: {fault}. Check the device, its cable and power, then retry "
+                    f"(the tool reconnects and repeats the step), or abort the run.",
+                    ("retry", "abort"), key="fault", fault=fault))
             if answer == "abort" or self._abort_requested.is_set():
                 raise _FailRun(fault)
             try:
@@ -273,7 +312,8 @@ class RunEngine:
 
     def _ask(self, msg: Instruct | Prompt) -> str:
         while True:
-            answer = self.operator.instruct(msg) if isinstance(msg, Instruct) else self.operator.prompt(msg)
+            with self.idle():
+                answer = self.operator.instruct(msg) if isinstance(msg, Instruct) else self.operator.prompt(msg)
             if answer == "pause":
                 self._pause("operator")
                 continue
@@ -299,7 +339,9 @@ class RunEngine:
     def _wait(self, msg: Wait) -> float:
         t0 = time.monotonic()
         if msg.seconds > 0:
-            self._abort_requested.wait(msg.seconds)  # an abort request ends the wait early
+            with self.idle():
+                self._wake.wait(msg.seconds)  # an abort or operator request ends the wait early
+        self._wake.clear()
         return time.monotonic() - t0
 
     def _record(self, msg: Record) -> None:
@@ -334,9 +376,18 @@ class RunEngine:
 
     def run(self, plan: Plan) -> RunOutcome:
         """Execute ``plan`` to its end; return how it ended."""
+        self.rig.claim()
+        try:
+            return self._run(plan)
+        finally:
+            self.rig.release()
+
+    def _run(self, plan: Plan) -> RunOutcome:
         self._transition(RunState.RUNNING)
         self._abort_requested.clear()
         self._pause_requested.clear()
+        self._wake.clear()
+        self._requests.clear()
         self._num_events = 0
         self._started = False
         self.faults = []

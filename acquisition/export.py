@@ -38,7 +38,7 @@ from .export_writers import write_table
 
 # What the command line needs of the compensation package (tui imports acquisition only).
 __all__ = ["DEFAULT_POLYNOMIAL_DEGREE", "FORMATS", "MODEL_NAMES", "MODES", "Export", "ExportOptions", "basis_text",
-           "build_export", "export_run", "format_comparison"]
+           "build_export", "export_path", "export_run", "format_comparison", "write_export"]
 
 FORMATS = ("linuxcnc", "fanuc", "siemens", "csv")
 SUFFIX = {"linuxcnc": ".comp", "fanuc": ".txt", "siemens": ".ini", "csv": ".csv"}
@@ -247,3 +247,21 @@ def export_run(run_dir: Path | str, options: ExportOptions, *, accept_out_of_ran
     setup = run.meta.get("setup") or {}
     axis = str(setup.get("axis_name") or run.meta.get("axis") or "X")
     return run, build_export(evaluation.result, options, axis=axis, deviations=evaluation.deviations)
+
+
+def export_path(run_path: Path, export: Export, fmt: str) -> Path:
+    """Where an export is written by default: ``RUN_DIR/results/compensation-FORMAT.<suffix>``."""
+    return run_path / "results" / f"compensation-{fmt}{export.suffix}"
+
+
+def write_export(run_dir: Path | str, options: ExportOptions, out: Path | None = None, *,
+                 accept_out_of_range: bool = False) -> tuple[Any, Export, Path]:
+    """Build the export of a positioning run (:func:`export_run`) and write it (atomically) to ``out``
+    or :func:`export_path`."""
+    from .runstore import write_text_atomic
+
+    run, export = export_run(run_dir, options, accept_out_of_range=accept_out_of_range)
+    path = out or export_path(run.path, export, options.fmt)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(path, export.text)
+    return run, export, path

@@ -112,7 +112,8 @@ def wait_in_position(engine: RunEngine, msg: WaitInPosition) -> InPositionEvent 
                 return InPositionEvent(st.count, 0, 0, 0, cycle_done=True)
         if time.monotonic() > deadline:
             return InPositionEvent(st.count, 0, 0, 0, armed=armed, timed_out=True)
-        time.sleep(msg.poll_s)
+        with engine.idle():  # a live reader may use the controller between polls
+            time.sleep(msg.poll_s)
     return None
 
 

@@ -4,7 +4,7 @@ Every message is a small frozen dataclass.  Replies: ``OpenRun`` -> run start
 time (s since the epoch); ``Instruct``/``Prompt`` -> the operator's answer;
 ``ReadSensor`` -> :class:`~drivers.readings.AveragedDisplacement`;
 ``TriggerInterferometer`` -> :class:`~drivers.readings.InterferometerReading`;
-``Wait`` -> the seconds actually waited; the others -> ``None``.
+``Wait`` -> the seconds actually waited; ``Requested`` -> bool; the others -> ``None``.
 
 The engine handles two answers itself and never passes them to the plan:
 ``"pause"`` (the run pauses, the operator is asked to resume or abort, then the
@@ -115,6 +115,27 @@ class Log:
 
 
 @dataclass(frozen=True)
+class Progress:
+    """A progress report for the operator's display (e.g. the warm-up drift); no effect on the run.
+
+    Subscribers get it as a ``progress`` document ``{"uid", "key", "data"}``.
+    """
+
+    key: str
+    data: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Requested:
+    """Has the operator asked for ``key`` (e.g. ``"override"`` of a warm-up) since the last check?
+
+    Reply: True once per request (:meth:`~acquisition.engine.RunEngine.request`), else False.
+    """
+
+    key: str
+
+
+@dataclass(frozen=True)
 class CloseRun:
     """End the run normally."""
 
@@ -123,7 +144,7 @@ class CloseRun:
 
 Message = (
     OpenRun | Instruct | Prompt | ZeroInterferometer | TriggerInterferometer
-    | ReadSensor | Wait | Annotate | Retract | Record | Log | CloseRun
+    | ReadSensor | Wait | Annotate | Retract | Record | Log | Progress | Requested | CloseRun
 )
 
 # Messages that talk to a device: a driver error while executing one pauses the run.

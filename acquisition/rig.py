@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -86,6 +87,28 @@ class Rig:
     # Opens fresh connections to the same devices (set by open_rig); None: reconnect just retries.
     reopen: Callable[[], Rig] | None = field(default=None, repr=False)
     environment: XYMD02 | None = None
+    # Held by whoever talks to the devices: the run engine for the whole run except while it waits
+    # (operator, Wait), a live reader (acquisition.monitor) in between; see claim().
+    lock: threading.RLock = field(default_factory=threading.RLock, repr=False)
+    _claimed: threading.Event = field(default_factory=threading.Event, repr=False)
+
+    def claim(self) -> None:
+        """Take the devices for the run engine (blocks until a live reading in progress ends;
+        :attr:`claimed` tells a live reader to hand them over at once)."""
+        self._claimed.set()
+        try:
+            self.lock.acquire()
+        finally:
+            self._claimed.clear()
+
+    def release(self) -> None:
+        """Give the devices back (the engine waits, or the run is over)."""
+        self.lock.release()
+
+    @property
+    def claimed(self) -> bool:
+        """True while the engine waits to take the devices back."""
+        return self._claimed.is_set()
 
     def trigger_and_read(self) -> InterferometerReading:
         """One triggered interferometer capture.

@@ -25,16 +25,19 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(EXIT_USAGE)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The parser; with ``argv`` naming a sub-command first, only that one is registered (faster start)."""
     p = _Parser(prog="guideway", description="Guideway straightness and machine-axis calibration.")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    register_all(sub)
+    first = next(iter(argv), None) if argv else None
+    register_all(sub, only=first if first and not first.startswith("-") else None)
     return p
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
-    args = build_parser().parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser(argv).parse_args(argv)
     try:
         return int(args.func(args))
     except EXPECTED_ERRORS as exc:

@@ -41,9 +41,11 @@ from ..messages import (
     Log,
     Message,
     OpenRun,
+    Progress,
     Prompt,
     ReadSensor,
     Record,
+    Requested,
     Retract,
     TriggerInterferometer,
     Wait,
@@ -178,6 +180,12 @@ def warmup(w: WarmupSetup, samples: int) -> Generator[Message, Any, dict[str, An
     sen_hist: list[float] = []
     elapsed = since_prompt = 0.0
     drift_ifm = drift_sensor = math.nan
+
+    def progress(state: str) -> dict[str, Any]:  # the display's view of the warm-up (Progress "warmup")
+        return {"state": state, "elapsed_s": elapsed, "readings": len(sen_hist), "window": w.window,
+                "drift_ifm_um": drift_ifm, "drift_sensor_um": drift_sensor, "max_drift_ifm_um": w.max_drift_ifm_um,
+                "max_drift_sensor_um": w.max_drift_sensor_um, "timeout_s": w.timeout_s}
+
     yield Log(f"warm-up: waiting for drift below {w.max_drift_ifm_um:g} um (interferometer) and "
               f"{w.max_drift_sensor_um:g} um (sensor) over {w.window} readings")
     while True:
@@ -191,6 +199,10 @@ def warmup(w: WarmupSetup, samples: int) -> Generator[Message, Any, dict[str, An
         if len(sen_hist) >= w.window and drift_ifm <= w.max_drift_ifm_um and drift_sensor <= w.max_drift_sensor_um:
             stable, overridden = True, False
             break
+        yield Progress("warmup", progress("drifting"))
+        if (yield Requested("override")):  # the operator overrides before the timeout (TUI key o)
+            stable, overridden = False, True
+            break
         if since_prompt >= w.timeout_s:
             answer = yield Prompt(
                 f"Warm-up not stable after {elapsed:.0f} s (drift {drift_ifm:.2f} um interferometer, "
@@ -203,6 +215,7 @@ def warmup(w: WarmupSetup, samples: int) -> Generator[Message, Any, dict[str, An
         waited = yield Wait(w.interval_s)
         elapsed += waited
         since_prompt += max(waited, w.interval_s)  # count planned time so a zero-latency run still times out
+    yield Progress("warmup", progress("stable" if stable else "overridden"))
     drift = {"ifm_um": drift_ifm, "sensor_um": drift_sensor, "window": w.window, "readings": len(sen_hist)}
     drift = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in drift.items()}
     yield Log(f"warm-up {'stable' if stable else 'overridden by the operator'} after {elapsed:.0f} s")

@@ -24,9 +24,18 @@ COMMAND_MODULES = (
     "report",
     "simulate",
     "diagnose",
+    "tui",
 )
 
 
-def register_all(subparsers) -> None:  # noqa: ANN001 - argparse's private type
-    for name in COMMAND_MODULES:
+# Command names that differ from their module's name.
+MODULE_OF = {"import": "import_data", "air-index": "air_index"}
+
+
+def register_all(subparsers, only: str | None = None) -> None:  # noqa: ANN001 - argparse's private type
+    """Register every sub-command, or only ``only`` when it names one (its options may import heavy
+    modules for their choices, e.g. export's models: ``guideway tui`` then starts sooner)."""
+    module = MODULE_OF.get(only or "", only)
+    names = [module] if module in COMMAND_MODULES else COMMAND_MODULES
+    for name in names:
         import_module(f"{__name__}.{name}").register(subparsers)

@@ -19,10 +19,9 @@ KINDS = ("straightness", "positioning")
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.acquire import SimOptions, run_positioning, run_straightness
+    from acquisition.acquire import SimOptions, acquire
     from acquisition.errors import SetupError, UserError
-    from acquisition.positioning_setup import positioning_setup_from_dict
-    from acquisition.setup import read_toml, straightness_setup_from_dict
+    from acquisition.setup import read_toml
 
     resume = args.resume is not None
     if isinstance(args.resume, Path):
@@ -46,14 +45,8 @@ def run(args: argparse.Namespace) -> int:
     sim = SimOptions(args.seed, not args.no_noise, args.faults,
                      scenario=str(args.scenario.resolve()) if args.scenario else None) if args.simulate else None
     source = read_toml(args.setup) if args.setup is not None else None
-    if args.kind == "straightness":
-        setup = straightness_setup_from_dict(source, str(args.setup)) if source is not None else None
-        res = run_straightness(setup, args.out, simulate=sim, auto=args.auto, resume=resume,
-                               stream=sys.stdout, stdin=sys.stdin)  # this call's streams, not import time's
-    else:
-        psetup = positioning_setup_from_dict(source, str(args.setup)) if source is not None else None
-        res = run_positioning(psetup, args.out, simulate=sim, auto=args.auto, resume=resume,  # type: ignore[assignment]
-                              setup_source=source, stream=sys.stdout, stdin=sys.stdin)
+    res = acquire(args.kind, source, str(args.setup), args.out, simulate=sim, auto=args.auto, resume=resume,
+                  stream=sys.stdout, stdin=sys.stdin)  # this call's streams, not import time's
     status = res.outcome.exit_status
     if status == "fail":
         raise UserError(f"run failed ({res.outcome.reason}); the points captured are in {args.out}; "

@@ -10,8 +10,7 @@ from pathlib import Path
 
 def run(args: argparse.Namespace) -> int:
     from acquisition.errors import UserError
-    from acquisition.export import ExportOptions, export_run
-    from acquisition.runstore import write_text_atomic
+    from acquisition.export import ExportOptions, export_run, write_export
 
     options = ExportOptions(
         fmt=args.format, model=args.model, mode=args.mode, step=args.step, tolerance=args.tolerance,
@@ -27,17 +26,17 @@ def run(args: argparse.Namespace) -> int:
     if to_stdout and args.json:
         raise UserError("--json prints the residuals on stdout; write the table to a file (--out FILE) "
                         "or use the default")
-    run_, export = export_run(args.run_dir, options, accept_out_of_range=args.accept_out_of_range)
-    for w in run_.warnings:
-        print(f"guideway: warning: {w}", file=sys.stderr)
     info = sys.stderr if to_stdout or args.json else sys.stdout
     out = None
     if to_stdout:
+        run_, export = export_run(args.run_dir, options, accept_out_of_range=args.accept_out_of_range)
+    else:
+        run_, export, out = write_export(args.run_dir, options, args.out, accept_out_of_range=args.accept_out_of_range)
+    for w in run_.warnings:
+        print(f"guideway: warning: {w}", file=sys.stderr)
+    if to_stdout:
         sys.stdout.write(export.text)
     else:
-        out = args.out or (run_.path / "results" / f"compensation-{args.format}{export.suffix}")
-        out.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(out, export.text)
         first, last = export.table.position[0], export.table.position[-1]
         step = "" if export.grid_step is None else f", step {round(export.grid_step, 9):.12g} {export.position_unit}"
         print(f"{args.format} table ({len(export.table)} points, {first:g} … {last:g} {export.position_unit}{step}, "

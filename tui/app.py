@@ -1,0 +1,255 @@
+"""The Textual application: a technician-guided measurement session, and a browser for saved runs.
+
+The run itself is :class:`~tui.session.RunSession` (the engine in a worker
+thread, the TUI operator, the live monitor); this module routes its messages
+to the session and the screens: the set-up, connect and warm-up, capture,
+results and runs screens, and the plan's questions as modal dialogs.
+"""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from textual.app import App
+from textual.binding import Binding
+
+from acquisition.messages import Instruct, Prompt
+
+from .messages import HeightArrived, LiveReadingArrived, LogLine, OperatorQuestion, RunDocument, RunEnded
+from .screens.dialogs import ConfirmScreen, HelpScreen, QuestionScreen
+from .screens.runs import RunsScreen
+from .screens.setup import SetupScreen
+
+# The acquisition stack (numpy, pandas, scipy, pymodbus, the simulation) is imported when a run starts
+# or results are opened, not before the first frame (benchmarks/bench_tui_first_frame.py).
+if TYPE_CHECKING:
+    from acquisition.acquire import SimOptions
+    from acquisition.positioning_setup import PositioningSetup
+    from acquisition.setup import StraightnessSetup
+
+    from .screens.run import RunScreen
+    from .session import RunPlanInfo, RunSession
+
+QUIT_WAIT_S = 10.0  # after quit was confirmed, the run has this long to close its files
+
+
+def plan_info(setup: StraightnessSetup | PositioningSetup, points_before: int = 0) -> RunPlanInfo:
+    from acquisition.setup import StraightnessSetup
+
+    from .session import RunPlanInfo
+
+    if isinstance(setup, StraightnessSetup):
+        return RunPlanInfo("straightness", len(setup.steps()), setup.stations, "mm", setup.return_pass,
+                           setup.warmup.enabled, setup.block_length_mm, points_before)
+    return RunPlanInfo("positioning", len(setup.measured_stops()), 0, setup.unit, points_before=points_before)
+
+
+class GuidewayApp(App[None]):
+    CSS_PATH = "app.tcss"
+    TITLE = "guideway"
+    ENABLE_COMMAND_PALETTE = False
+    BINDINGS = [Binding("q", "quit_app", "quit"), Binding("question_mark", "help", "help", key_display="?"),
+                Binding("f2", "setup", "set-up", show=False), Binding("f3", "runs", "runs", show=False)]
+
+    def __init__(self, *, setup_source: dict[str, Any] | None = None, setup_path: Path | None = None,
+                 out: Path | None = None, runs_dir: Path = Path("runs"), simulate: bool = False, seed: int = 0,
+                 noise: bool = True, faults: str | None = None, start: str = "setup",
+                 live_interval_s: float = 0.05) -> None:
+        super().__init__()
+        self.setup_source = setup_source
+        self.setup_path = setup_path
+        self.out = out
+        self.runs_dir = Path(runs_dir)
+        self.simulate = simulate
+        self.sim_args = (seed, noise, faults)
+        self.start = start
+        self.live_interval_s = live_interval_s
+        self.session: RunSession | None = None
+        self.quitting = False
+        self._question_open = 0  # ticket of the question shown in a dialog
+
+    def on_mount(self) -> None:
+        self.install_screen(SetupScreen(self.setup_source, setup_path=self.setup_path, out=self.out,
+                                        simulate=self.simulate), name="setup")
+        self.install_screen(RunsScreen(self.runs_dir), name="runs")
+        self.push_screen(self.start)
+
+    # -- navigation ------------------------------------------------------------------------------
+    def _switch(self, screen: Any) -> None:
+        while len(self.screen_stack) > 2:  # modal dialogs on top of the current screen
+            self.pop_screen()
+        self.switch_screen(screen)
+
+    def action_setup(self) -> None:
+        if self.run_active:
+            self.notify("a run is in progress", severity="warning")
+            return
+        self._switch("setup")
+
+    def action_runs(self) -> None:
+        if self.run_active:
+            self.notify("a run is in progress", severity="warning")
+            return
+        self._switch("runs")
+
+    def action_help(self) -> None:
+        if not isinstance(self.screen, HelpScreen | QuestionScreen):
+            self.push_screen(HelpScreen(self.screen, list(self.BINDINGS)))
+
+    @property
+    def sim_options(self) -> SimOptions:
+        from acquisition.acquire import SimOptions
+
+        return SimOptions(*self.sim_args)
+
+    def open_results(self, run_dir: Path, note: str = "") -> None:
+        from .screens.results import ResultsScreen
+
+        self._switch(ResultsScreen(run_dir, note))
+
+    @property
+    def run_active(self) -> bool:
+        return self.session is not None and self.session.active
+
+    # -- runs ---------------------------------------------------------------------------------------
+    def start_run(self, source: dict[str, Any], out: Path | None, *, simulate: bool,
+                  source_name: str = "set-up") -> None:
+        from acquisition.setup_file import setup_from_dict
+
+        from .screens.run import ConnectScreen
+        from .session import RunSession
+
+        setup = setup_from_dict(source, source_name)
+        info = plan_info(setup)
+        if out is None:
+            out = self.runs_dir / f"{info.kind}-{datetime.now(UTC).strftime('%Y%m%dT%H%M%SZ')}"
+        self._begin(RunSession(self.post_message, info, source, out,
+                               simulate=self.sim_options if simulate else None, source_name=source_name,
+                               live_interval_s=self.live_interval_s), ConnectScreen)
+
+    def resume_run(self, run_dir: Path) -> None:
+        """Continue an aborted or crashed run after its last point on disk (the capture screen)."""
+        from acquisition.live import LiveProfile
+        from acquisition.positioning_setup import positioning_setup_from_dict
+        from acquisition.runstore import load_run
+        from acquisition.setup import straightness_setup_from_run
+
+        from .screens.run import CaptureScreen
+        from .session import RunSession, positioning_deviation
+
+        try:
+            run = load_run(run_dir)
+            if run.kind == "straightness":
+                setup: Any = straightness_setup_from_run(run.meta)
+            else:
+                setup = positioning_setup_from_dict(run.meta.get("setup_source") or {}, f"{run_dir}/run.json")
+        except Exception as exc:  # noqa: BLE001 - shown, not raised: the browser stays usable
+            self.notify(f"cannot resume {run_dir}: {exc}", severity="error")
+            return
+        simulated = "simulation" in run.meta or self.simulate
+        session = RunSession(self.post_message, plan_info(setup, len(run.points)), None, run_dir,
+                             simulate=self.sim_options if simulated else None, resume=True,
+                             live_interval_s=self.live_interval_s)
+        rows = run.points.to_dict("records")
+        if run.kind == "straightness":  # the profile so far, as the live display computes it
+            live = LiveProfile(setup.geometry)
+            for row in rows:
+                live("event", {"data": row})
+            session.view.heights.update(live.heights)
+        else:
+            for row in rows:
+                key, target, dev = positioning_deviation(row)
+                session.view.deviations[key] = (target, dev)
+        self._begin(session, CaptureScreen)
+
+    def _begin(self, session: RunSession, screen: type[RunScreen]) -> None:
+        self.session = session
+        session.start()
+        self._switch(screen(session))
+
+    # -- messages from the run's thread -------------------------------------------------------------
+    def on_live_reading_arrived(self, message: LiveReadingArrived) -> None:
+        self._apply(message)
+
+    def on_run_document(self, message: RunDocument) -> None:
+        self._apply(message)
+
+    def on_height_arrived(self, message: HeightArrived) -> None:
+        self._apply(message)
+
+    def on_log_line(self, message: LogLine) -> None:
+        self._apply(message)
+
+    def on_operator_question(self, message: OperatorQuestion) -> None:
+        self._apply(message)
+        from .screens.run import CaptureScreen, ConnectScreen
+
+        q = message.question
+        if isinstance(q, Prompt):
+            self._ask(q, message.ticket)
+        elif isinstance(q, Instruct) and q.key in ("station", "target", "start") \
+                and isinstance(self.screen, ConnectScreen):
+            self._switch(CaptureScreen(self.screen.session))
+
+    def on_run_ended(self, message: RunEnded) -> None:
+        self._apply(message)
+        if self.quitting:
+            self.exit()
+            return
+        outcome = message.outcome
+        if outcome is None:
+            note = f"the run did not start: {message.error}"
+        elif outcome.exit_status == "success":
+            note = ""
+        else:
+            note = (f"run {outcome.exit_status}: {outcome.reason}; the points are kept and the run can be "
+                    f"resumed (c on the Runs screen)")
+        if outcome is None and not (message.run_dir / "run.json").exists():
+            self._switch("setup")
+            self.notify(note, severity="error", timeout=10)
+            return
+        self.open_results(message.run_dir, note)
+
+    def _apply(self, message: Any) -> None:
+        if self.session is None:
+            return
+        self.session.apply(message)
+        if not self.screen_stack:  # shutting down
+            return
+        screen = self.screen if not isinstance(self.screen, QuestionScreen | HelpScreen | ConfirmScreen) \
+            else self.screen_stack[-2] if len(self.screen_stack) > 1 else None
+        if screen is not None and hasattr(screen, "refresh_view"):  # a run screen
+            screen.refresh_view()
+
+    def _ask(self, prompt: Prompt, ticket: int) -> None:
+        session = self.session
+        assert session is not None
+
+        def answered(choice: str | None) -> None:
+            if choice is not None and session.view.ticket == ticket and session.view.question is prompt:
+                session.answer(choice)
+
+        self.push_screen(QuestionScreen(prompt), answered)
+
+    # -- quitting -----------------------------------------------------------------------------------
+    def action_quit_app(self) -> None:
+        if not self.run_active:
+            self.exit()
+            return
+
+        def answered(yes: bool | None) -> None:
+            if yes and self.session is not None:
+                self.quitting = True
+                self.session.abort()
+                self.set_timer(QUIT_WAIT_S, self.exit)
+
+        self.push_screen(ConfirmScreen("Quit?", "A run is in progress. Quitting aborts it: the points captured "
+                                       "stay on disk and the run stays resumable (Runs screen, or guideway "
+                                       "acquire --resume)."), answered)
+
+    def on_unmount(self) -> None:
+        if self.run_active and self.session is not None:  # closed some other way: leave the run resumable
+            self.session.abort()
+            self.session.join(QUIT_WAIT_S)

@@ -1,0 +1,65 @@
+"""The TUI operator: answers the engine's instructions and questions from the UI.
+
+The engine calls :meth:`TuiOperator.instruct` / :meth:`prompt` in its worker
+thread; they post the question to the UI and block *that* thread until the UI
+calls :meth:`answer` (never the UI thread).  Simulated physical actions
+(``--simulate``: the block moves when the operator confirms) run like the
+terminal operator's.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from acquisition.messages import Instruct, Log, Prompt
+
+from .messages import LogLine, OperatorQuestion
+
+
+class TuiOperator:
+    def __init__(self, post: Callable[[Any], Any]) -> None:
+        self.post = post
+        self.actions: dict[str, Callable[..., None]] = {}
+        self._answers: queue.Queue[tuple[int, str]] = queue.Queue()
+        self._ticket = 0
+        self._closed = threading.Event()
+
+    def _ask(self, msg: Instruct | Prompt) -> str:
+        if self._closed.is_set():
+            return "abort"
+        self._ticket += 1
+        ticket = self._ticket
+        self.post(OperatorQuestion(msg, ticket))
+        while True:
+            try:
+                got, answer = self._answers.get(timeout=0.2)
+            except queue.Empty:
+                if self._closed.is_set():  # the UI has gone: end the run, its points are kept
+                    return "abort"
+                continue
+            if got == ticket:
+                return answer
+
+    def answer(self, ticket: int, answer: str) -> None:
+        """The UI's answer to question ``ticket`` (any thread)."""
+        self._answers.put((ticket, answer))
+
+    def close(self) -> None:
+        """The UI is going away: the pending and every further question is answered ``abort``."""
+        self._closed.set()
+
+    def instruct(self, msg: Instruct) -> str:
+        answer = self._ask(msg)
+        action = self.actions.get(msg.action)
+        if answer == msg.choices[0] and action is not None:
+            action(**msg.params)
+        return answer
+
+    def prompt(self, msg: Prompt) -> str:
+        return self._ask(msg)
+
+    def log(self, msg: Log) -> None:
+        self.post(LogLine(msg.text))

@@ -1,0 +1,1 @@
+"""The TUI's screens: set-up, connect and warm-up, capture, results, runs; modal dialogs."""

@@ -1,0 +1,230 @@
+"""One run driven from the TUI: the engine in a worker thread, and what the screens show of it.
+
+:class:`RunSession` starts the run through :func:`acquisition.acquire.acquire`
+(the entry point of ``guideway acquire``: same plans, run store and
+evaluation) with a :class:`~tui.operator.TuiOperator`, a subscriber that posts
+every document to the UI, and a :class:`~acquisition.monitor.LiveMonitor` on
+the run's rig for the live readings.  The UI thread applies the messages to
+the session (:meth:`RunSession.apply`) and the screens draw from it; it never
+waits on a device.
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import io
+import threading
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from acquisition.acquire import SimOptions, acquire
+from acquisition.engine import RunEngine, RunOutcome
+from acquisition.errors import EXPECTED_ERRORS
+from acquisition.messages import Instruct, Prompt
+from acquisition.monitor import LiveMonitor, LiveReading
+
+from .messages import HeightArrived, LiveReadingArrived, LogLine, OperatorQuestion, RunDocument, RunEnded
+from .operator import TuiOperator
+
+Post = Callable[[Any], Any]
+LOG_LINES = 200
+
+
+class _LogStream(io.TextIOBase):
+    """What the run prints (simulated endpoints, live heights, the outcome) as log lines for the UI."""
+
+    def __init__(self, post: Post) -> None:
+        self.post = post
+        self._buf = ""
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, text: str) -> int:
+        self._buf += text
+        *lines, self._buf = self._buf.split("\n")
+        for line in lines:
+            if line.strip():
+                self.post(LogLine(line))
+        return len(text)
+
+
+@dataclass
+class RunPlanInfo:
+    """What a screen needs to know of the run before its documents arrive."""
+
+    kind: str
+    total_steps: int  # straightness: (pass, station) steps; positioning: measured stops
+    stations: int = 0
+    unit: str = "mm"  # positioning: mm or deg
+    return_pass: bool = False
+    warmup: bool = False
+    step_mm: float = 0.0  # straightness: block length (x of station k = k * step_mm)
+    points_before: int = 0  # resumed run: points already on disk
+
+
+@dataclass
+class SessionView:
+    """The state the run screens draw (changed on the UI thread only)."""
+
+    question: Instruct | Prompt | None = None
+    ticket: int = 0
+    reading: LiveReading | None = None
+    sensor_history: collections.deque[float] = field(default_factory=lambda: collections.deque(maxlen=120))
+    warmup: dict[str, Any] = field(default_factory=dict)
+    heights: dict[tuple[int, int], float] = field(default_factory=dict)  # (pass, station) -> um
+    deviations: dict[tuple[int, int, int], tuple[float, float]] = field(default_factory=dict)  # (run, dir, i)
+    points: int = 0
+    last_point: dict[str, Any] | None = None
+    state: str = "connecting"  # connecting, running, paused, finished, failed
+    log: collections.deque[str] = field(default_factory=lambda: collections.deque(maxlen=LOG_LINES))
+    faults: list[str] = field(default_factory=list)
+    outcome: RunOutcome | None = None
+    error: str = ""
+    started: bool = False
+
+
+def positioning_deviation(row: dict[str, Any]) -> tuple[tuple[int, int, int], float, float]:
+    """((run, direction, target_index), target, deviation) of a positioning point as it arrives:
+    reading - target in um (linear) or arcsec (rotary), before environmental compensation."""
+    unit = "deg" if "target_deg" in row else "mm"
+    scale = 3600.0 if unit == "deg" else 1000.0
+    target = float(row[f"target_{unit}"])
+    key = (int(row["run"]), int(row["direction"]), int(row["target_index"]))
+    return key, target, (float(row[f"reading_{unit}"]) - target) * scale
+
+
+class RunSession:
+    """A run of ``kind`` from a set-up TOML structure (``source``; None to resume ``out``)."""
+
+    def __init__(self, post: Post, info: RunPlanInfo, source: dict[str, Any] | None, out: Path, *,
+                 simulate: SimOptions | None, resume: bool = False, source_name: str = "set-up",
+                 live_interval_s: float = 0.05) -> None:
+        self.post = post
+        self.info = info
+        self.source = source
+        self.source_name = source_name
+        self.out = Path(out)
+        self.simulate = simulate
+        self.resume = resume
+        self.live_interval_s = live_interval_s
+        self.operator = TuiOperator(post)
+        self.view = SessionView()
+        self.engine: RunEngine | None = None
+        self.monitor: LiveMonitor | None = None
+        self._thread: threading.Thread | None = None
+
+    # -- the worker -----------------------------------------------------------------------------
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._run, name="guideway-run", daemon=True)
+        self._thread.start()
+
+    @property
+    def active(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def join(self, timeout_s: float) -> bool:
+        """Wait for the worker (tests, and the app on its way out); True when it has finished."""
+        if self._thread is not None:
+            self._thread.join(timeout_s)
+        return not self.active
+
+    def _run(self) -> None:
+        kwargs: dict[str, Any] = {"operator": self.operator, "stream": _LogStream(self.post),
+                                  "subscribers": (self._document,), "on_engine": self._attach}
+        if self.info.kind == "straightness":
+            kwargs["on_height"] = lambda p, k, h: self.post(HeightArrived(p, k, h))
+        try:
+            result = acquire(self.info.kind, self.source, self.source_name, self.out, simulate=self.simulate,
+                             resume=self.resume, **kwargs)
+        except EXPECTED_ERRORS as exc:
+            self.post(RunEnded(self.out, None, str(exc)))
+        except Exception as exc:  # a bug: say so on the screen rather than die silently in a thread
+            self.post(RunEnded(self.out, None, f"internal error: {exc!r}"))
+        else:
+            self.post(RunEnded(self.out, result.outcome))
+
+    @contextlib.contextmanager
+    def _attach(self, engine: RunEngine) -> Iterator[None]:
+        self.engine = engine
+        self.monitor = LiveMonitor(engine.rig, lambda r: self.post(LiveReadingArrived(r)),
+                                   interval_s=self.live_interval_s)
+        with self.monitor:
+            yield
+
+    def _document(self, name: str, doc: dict[str, Any]) -> None:
+        self.post(RunDocument(name, doc))
+
+    # -- requests from the UI (UI thread; none of them waits on a device) ------------------------
+    def answer(self, choice: str) -> None:
+        q = self.view.question
+        if q is None:
+            return
+        self.view.question = None
+        self.operator.answer(self.view.ticket, choice)
+
+    def pause(self) -> None:
+        if self.view.question is not None and "pause" in self.view.question.choices:
+            self.answer("pause")
+        elif self.engine is not None:
+            self.engine.request_pause()
+
+    def override(self) -> None:
+        """Warm-up override (recorded in the run)."""
+        if self.engine is not None:
+            self.engine.request("override")
+
+    def abort(self) -> None:
+        """End the run early; its points stay on disk and it stays resumable."""
+        if self.engine is not None:
+            self.engine.request_abort()
+        self.operator.close()
+        if self.view.question is not None:
+            self.answer("abort")
+
+    # -- messages applied on the UI thread ---------------------------------------------------------
+    def apply(self, message: Any) -> None:
+        v = self.view
+        if isinstance(message, LiveReadingArrived):
+            v.reading = message.reading
+            if message.reading.has_sensor and message.reading.sensor_mean_mm == message.reading.sensor_mean_mm:
+                v.sensor_history.append(message.reading.sensor_mean_mm)
+        elif isinstance(message, OperatorQuestion):
+            v.question, v.ticket = message.question, message.ticket
+        elif isinstance(message, LogLine):
+            v.log.append(message.text)
+        elif isinstance(message, HeightArrived):
+            v.heights[(message.pass_, message.station)] = message.height_um
+        elif isinstance(message, RunDocument):
+            self._apply_document(message.name, message.doc)
+        elif isinstance(message, RunEnded):
+            v.outcome, v.error = message.outcome, message.error
+            v.question = None
+            v.state = "failed" if message.outcome is None or message.outcome.exit_status == "fail" else "finished"
+
+    def _apply_document(self, name: str, doc: dict[str, Any]) -> None:
+        v = self.view
+        if name == "start":
+            v.started = True
+            v.state = "running"
+        elif name == "state":
+            if doc["state"] in ("running", "paused"):
+                v.state = doc["state"]
+        elif name == "progress" and doc.get("key") == "warmup":
+            v.warmup = dict(doc["data"])
+        elif name == "event":
+            row = doc["data"]
+            v.points += 1
+            v.last_point = row
+            if self.info.kind == "positioning":
+                key, target, dev = positioning_deviation(row)
+                v.deviations[key] = (target, dev)
+        elif name == "retract":
+            v.points -= 1
+            m = doc["match"]
+            v.heights.pop((int(m.get("pass", 0)), int(m["station"])), None)
+        elif name == "annotate" and doc.get("key") == "faults":
+            v.faults = list(doc["value"])

@@ -1,0 +1,47 @@
+"""Text of the live readings: sensor value and status, every interferometer channel, status flags,
+environment (the formats of ``guideway devices probe``)."""
+
+from __future__ import annotations
+
+import math
+
+from acquisition.monitor import LiveReading
+from acquisition.probe import status_flags
+
+
+def sensor_line(r: LiveReading | None) -> str:
+    if r is None or not r.has_sensor:
+        return "sensor: [dim]waiting for a reading[/dim]"
+    value = f"{r.sensor_mm:+.5f} mm" if math.isfinite(r.sensor_mm) else "no value"
+    status = r.sensor_status if r.sensor_status == "ok" else f"[red]{r.sensor_status}[/red]"
+    rate = f"  {r.sensor_rate_hz:,.0f} values/s, lost {r.frames_lost}" if r.sensor_count > 1 else ""
+    return f"sensor: [b]{value}[/b] {status}{rate}"
+
+
+def interferometer_lines(r: LiveReading | None) -> list[str]:
+    ifm = r.interferometer if r is not None else None
+    if ifm is None:
+        return ["interferometer: [dim]waiting for a reading[/dim]"]
+    return [
+        f"interferometer: {status_flags(ifm.status)}",
+        f"  position {ifm.position_mm:+.6f} mm  stry {ifm.stry_um:+.3f} um  strz {ifm.strz_um:+.3f} um",
+        f"  pitch {ifm.pitch_urad:+.2f} urad  yaw {ifm.yaw_urad:+.2f} urad  roll {ifm.roll_urad:+.2f} urad",
+        f"  air {ifm.air_temp_c:.3f} C  {ifm.air_pressure_hpa:.2f} hPa  {ifm.humidity_pct:.1f} %RH  "
+        f"material {ifm.material_temp_c:.3f} C",
+    ]
+
+
+def readout_text(r: LiveReading | None, *, sensor: bool = True) -> str:
+    lines = ([sensor_line(r)] if sensor else []) + interferometer_lines(r)
+    if r is not None and r.problem:
+        lines.append(f"[red]{r.problem}[/red]")
+    return "\n".join(lines)
+
+
+def bar(value: float, limit: float, width: int = 24) -> str:
+    """``value`` against ``limit`` as a bar (full = the limit; beyond it red)."""
+    if not (math.isfinite(value) and limit > 0):
+        return "[dim]" + "·" * width + "[/dim]   n/a"
+    filled = min(width, round(width * value / limit))
+    colour = "green" if value <= limit else "red"
+    return f"[{colour}]{'█' * filled}[/{colour}][dim]{'·' * (width - filled)}[/dim] {value:6.3f} / {limit:g} um"
