@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import io
 import re
 from typing import Any
@@ -48,6 +49,9 @@ class Engine:
 
     def __init__(self, plc: PLC) -> None:
         self.rig = type("R", (), {"controller": plc})()
+
+    def idle(self) -> contextlib.AbstractContextManager[None]:  # no live reader shares this rig
+        return contextlib.nullcontext()
 
 
 def wait(script: list[tuple[int, int, int, int, int]], last_count: int = -1, armed: bool = False,
