@@ -27,7 +27,7 @@ from drivers.modbus_link import parse_modbus_url
 from . import inposition  # noqa: F401 - registers the in-position message handlers
 from .engine import RunEngine, RunOutcome, Subscriber
 from .errors import SetupError, UserError
-from .live import HeightCallback, LiveDeviation, LiveProfile
+from .live import DeviationCallback, HeightCallback, LiveDeviation, LiveProfile
 from .operators import AutoOperator, Operator, TerminalOperator
 from .plans.positioning import positioning_plan, positioning_resume_point
 from .plans.straightness import ResumePoint, resume_point, straightness_plan
@@ -368,12 +368,14 @@ def run_positioning(
     operator: Operator | None = None,
     subscribers: tuple[Subscriber, ...] = (),
     on_engine: EngineHook | None = None,
+    on_deviation: DeviationCallback | None = None,
 ) -> PositioningResult:
     """Acquire (or resume) an ISO 230-2 positioning run into ``out``.
 
     ``setup_source`` is the set-up file's TOML structure, kept in run.json so a resume rebuilds
     exactly the same set-up (targets included).  ``operator``, ``subscribers``, ``on_engine``: as for
-    :func:`run_straightness`.
+    :func:`run_straightness`; ``on_deviation`` gets every point's live deviation as well (the
+    environment-compensated value the terminal shows, :class:`~acquisition.live.LiveDeviation`).
     """
     out = Path(out)
     rp = None
@@ -423,9 +425,14 @@ def run_positioning(
             actions = {"cycle_start": sim.cycle_start} if sim is not None else {}
             operator = _operator(operator, actions, auto, stdin, stream)
             first = store.loaded_points[0] if rp is not None and store.loaded_points else None
-            live = LiveDeviation(setup.axis_type, setup.environment.to_dict(),
-                                 live_deviation_printer(stream, "arcsec" if setup.axis_type == "rotary" else "um"),
-                                 first)
+            printer = live_deviation_printer(stream, "arcsec" if setup.axis_type == "rotary" else "um")
+
+            def show_deviation(row: dict[str, Any], deviation: float, label: str) -> None:
+                printer(row, deviation, label)
+                if on_deviation is not None:
+                    on_deviation(row, deviation, label)
+
+            live = LiveDeviation(setup.axis_type, setup.environment.to_dict(), show_deviation, first)
             engine = RunEngine(rig, operator, (store, live, *subscribers))
             with _engine_context(on_engine, engine):
                 outcome = engine.run(positioning_plan(setup, {}, resume=rp))

@@ -17,7 +17,15 @@ from textual.binding import Binding
 
 from acquisition.messages import Instruct, Prompt
 
-from .messages import HeightArrived, LiveReadingArrived, LogLine, OperatorQuestion, RunDocument, RunEnded
+from .messages import (
+    DeviationArrived,
+    HeightArrived,
+    LiveReadingArrived,
+    LogLine,
+    OperatorQuestion,
+    RunDocument,
+    RunEnded,
+)
 from .screens.dialogs import ConfirmScreen, HelpScreen, QuestionScreen
 from .screens.runs import RunsScreen
 from .screens.setup import SetupScreen
@@ -131,13 +139,13 @@ class GuidewayApp(App[None]):
 
     def resume_run(self, run_dir: Path) -> None:
         """Continue an aborted or crashed run after its last point on disk (the capture screen)."""
-        from acquisition.live import LiveProfile
+        from acquisition.live import LiveDeviation, LiveProfile
         from acquisition.positioning_setup import positioning_setup_from_dict
         from acquisition.runstore import load_run
         from acquisition.setup import straightness_setup_from_run
 
         from .screens.run import CaptureScreen
-        from .session import RunSession, positioning_deviation
+        from .session import RunSession, add_deviation
 
         try:
             run = load_run(run_dir)
@@ -158,10 +166,11 @@ class GuidewayApp(App[None]):
             for row in rows:
                 live("event", {"data": row})
             session.view.heights.update(live.heights)
-        else:
+        else:  # the deviations so far, as the live display computes them
+            deviations = LiveDeviation(setup.axis_type, setup.environment.to_dict(),
+                                       lambda row, dev, label: add_deviation(session.view, row, dev, label))
             for row in rows:
-                key, target, dev = positioning_deviation(row)
-                session.view.deviations[key] = (target, dev)
+                deviations("event", {"data": row})
         self._begin(session, CaptureScreen)
 
     def _begin(self, session: RunSession, screen: type[RunScreen]) -> None:
@@ -177,6 +186,9 @@ class GuidewayApp(App[None]):
         self._apply(message)
 
     def on_height_arrived(self, message: HeightArrived) -> None:
+        self._apply(message)
+
+    def on_deviation_arrived(self, message: DeviationArrived) -> None:
         self._apply(message)
 
     def on_log_line(self, message: LogLine) -> None:

@@ -48,6 +48,16 @@ class HeightArrived(Message, bubble=False):
 
 
 @dataclass
+class DeviationArrived(Message, bubble=False):
+    """The live deviation of a positioning point (acquisition.live.LiveDeviation): µm after
+    environmental compensation (linear axes) or arcsec (rotary), ``label`` says which."""
+
+    row: dict[str, Any]
+    deviation: float
+    label: str
+
+
+@dataclass
 class OperatorQuestion(Message, bubble=False):
     """The plan asks the operator; the answer goes back with ``ticket`` (tui.operator.TuiOperator.answer)."""
 

@@ -26,7 +26,15 @@ from acquisition.errors import EXPECTED_ERRORS
 from acquisition.messages import Instruct, Prompt
 from acquisition.monitor import LiveMonitor, LiveReading
 
-from .messages import HeightArrived, LiveReadingArrived, LogLine, OperatorQuestion, RunDocument, RunEnded
+from .messages import (
+    DeviationArrived,
+    HeightArrived,
+    LiveReadingArrived,
+    LogLine,
+    OperatorQuestion,
+    RunDocument,
+    RunEnded,
+)
 from .operator import TuiOperator
 
 Post = Callable[[Any], Any]
@@ -76,7 +84,9 @@ class SessionView:
     sensor_history: collections.deque[float] = field(default_factory=lambda: collections.deque(maxlen=120))
     warmup: dict[str, Any] = field(default_factory=dict)
     heights: dict[tuple[int, int], float] = field(default_factory=dict)  # (pass, station) -> um
-    deviations: dict[tuple[int, int, int], tuple[float, float]] = field(default_factory=dict)  # (run, dir, i)
+    # (run, direction, target index) -> (target, live deviation: um environment-compensated, or arcsec)
+    deviations: dict[tuple[int, int, int], tuple[float, float]] = field(default_factory=dict)
+    deviation_label: str = ""  # what the live deviations are (acquisition.live.LiveDeviation.label)
     points: int = 0
     last_point: dict[str, Any] | None = None
     state: str = "connecting"  # connecting, running, paused, finished, failed
@@ -87,14 +97,11 @@ class SessionView:
     started: bool = False
 
 
-def positioning_deviation(row: dict[str, Any]) -> tuple[tuple[int, int, int], float, float]:
-    """((run, direction, target_index), target, deviation) of a positioning point as it arrives:
-    reading - target in um (linear) or arcsec (rotary), before environmental compensation."""
-    unit = "deg" if "target_deg" in row else "mm"
-    scale = 3600.0 if unit == "deg" else 1000.0
-    target = float(row[f"target_{unit}"])
-    key = (int(row["run"]), int(row["direction"]), int(row["target_index"]))
-    return key, target, (float(row[f"reading_{unit}"]) - target) * scale
+def add_deviation(view: SessionView, row: dict[str, Any], deviation: float, label: str) -> None:
+    """Keep a positioning point's live deviation (from acquisition.live.LiveDeviation) for the display."""
+    target = float(row["target_deg"] if "target_deg" in row else row["target_mm"])
+    view.deviations[(int(row["run"]), int(row["direction"]), int(row["target_index"]))] = (target, deviation)
+    view.deviation_label = label
 
 
 class RunSession:
@@ -137,6 +144,8 @@ class RunSession:
                                   "subscribers": (self._document,), "on_engine": self._attach}
         if self.info.kind == "straightness":
             kwargs["on_height"] = lambda p, k, h: self.post(HeightArrived(p, k, h))
+        else:
+            kwargs["on_deviation"] = lambda row, dev, label: self.post(DeviationArrived(dict(row), dev, label))
         try:
             result = acquire(self.info.kind, self.source, self.source_name, self.out, simulate=self.simulate,
                              resume=self.resume, **kwargs)
@@ -198,6 +207,8 @@ class RunSession:
             v.log.append(message.text)
         elif isinstance(message, HeightArrived):
             v.heights[(message.pass_, message.station)] = message.height_um
+        elif isinstance(message, DeviationArrived):
+            add_deviation(v, message.row, message.deviation, message.label)
         elif isinstance(message, RunDocument):
             self._apply_document(message.name, message.doc)
         elif isinstance(message, RunEnded):
@@ -219,9 +230,6 @@ class RunSession:
             row = doc["data"]
             v.points += 1
             v.last_point = row
-            if self.info.kind == "positioning":
-                key, target, dev = positioning_deviation(row)
-                v.deviations[key] = (target, dev)
         elif name == "retract":
             v.points -= 1
             m = doc["match"]

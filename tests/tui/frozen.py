@@ -75,6 +75,7 @@ def positioning_session() -> RunSession:
     for i, (t, d) in enumerate(devs, start=1):
         v.deviations[(1, 1, i)] = (t, d)
         v.deviations[(1, -1, i)] = (t, d - 2.8)
+    v.deviation_label = "environment-compensated"
     v.points = 10
     v.last_point = {"run": 1, "direction": -1, "target_index": 1, "target_mm": 0.0, "reading_mm": -0.0028}
     v.question = Instruct("cycle_start", "Start the part program of this cycle (guideway gcode) with Cycle Start.",

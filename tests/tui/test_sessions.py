@@ -15,6 +15,8 @@ from pathlib import Path
 import pytest
 
 from acquisition.acquire import SimOptions, acquire
+from acquisition.evaluate_positioning import positioning_deviations
+from acquisition.runstore import load_run
 from tests.tui.sessions import (
     POSITIONING,
     STRAIGHTNESS,
@@ -75,6 +77,8 @@ def test_straightness_session_with_return_pass_equals_the_automatic_run(tmp_path
 
 def test_linear_positioning_session_equals_the_automatic_run(tmp_path: Path) -> None:
     out = tmp_path / "tui"
+    shown: dict = {}  # the live deviations on the capture screen when the run ended
+    shown_label: list[str] = []
 
     async def session() -> None:
         app = app_for(POSITIONING, out)
@@ -86,6 +90,8 @@ def test_linear_positioning_session_equals_the_automatic_run(tmp_path: Path) -> 
             await wait_for_app(pilot, lambda: app.screen.evaluation is not None, what="the evaluation")
             await pilot.pause()
             summary = widget_text(app, "#summary")
+            shown.update(app.session.view.deviations)
+            shown_label.append(app.session.view.deviation_label)
         iso = process_json(out)["iso230_2"]
         for q, label in (("B", "reversal B"), ("R", "repeatability R "), ("E", "systematic E "),
                          ("M", "mean positional M"), ("A", "accuracy A ")):
@@ -94,6 +100,13 @@ def test_linear_positioning_session_equals_the_automatic_run(tmp_path: Path) -> 
     asyncio.run(session())
     assert json.loads((out / "run.json").read_text())["status"] == "complete"
     assert_same_points(out, auto_run(POSITIONING, tmp_path / "auto"))
+    # the live display showed every point's deviation after environmental compensation, as process computes
+    # it for the whole run (the raw reading - target is hundreds of um off in the simulated air)
+    processed, _, _ = positioning_deviations(load_run(out))
+    assert shown_label == ["environment-compensated"] and len(shown) == len(processed) > 0
+    for row in processed.itertuples():
+        target, dev = shown[(int(row.run), int(row.direction), int(row.target_index))]
+        assert target == pytest.approx(row.target) and dev == pytest.approx(row.deviation, abs=1e-6)
 
 
 @pytest.mark.parametrize("faults", ["sensor:drop@5x1", "controller:exception@15x1"])

@@ -30,6 +30,15 @@ STATE_TEXT = {
 }
 
 
+# acquisition.live.LiveDeviation's labels, short enough for an 80-column screen
+SHORT_LABELS = {"environment-compensated": "env.-comp.", "readings compensated by the controller": "ctrl-comp.",
+                "angular, not air-compensated": "not air-comp."}
+
+
+def short_label(label: str) -> str:
+    return SHORT_LABELS.get(label, label)
+
+
 class RunScreen(Screen):
     """What both run screens share: the session, the pending instruction, the keys that answer it."""
 
@@ -187,7 +196,8 @@ class CaptureScreen(RunScreen):
         return f"{v.points} of {info.total_steps} points"
 
     def last_text(self) -> str:
-        row = self.session.view.last_point
+        v = self.session.view
+        row = v.last_point
         if row is None:
             return "last point: [dim]none yet[/dim]"
         if "station" in row:
@@ -197,11 +207,12 @@ class CaptureScreen(RunScreen):
                     f"x {row['x_mm']:g} mm  stry {row['stry_um']:+.3f} um  sensor {row['sensor_mm']:+.5f} mm"
                     f"{height}")
         unit = "deg" if "target_deg" in row else "mm"
-        dev_unit, scale = ("arcsec", 3600.0) if unit == "deg" else ("um", 1000.0)
-        dev = (row[f"reading_{unit}"] - row[f"target_{unit}"]) * scale
+        dev_unit = "arcsec" if unit == "deg" else "um"
+        live = v.deviations.get((int(row["run"]), int(row["direction"]), int(row["target_index"])))
+        dev = f"{live[1]:+.2f} {dev_unit} ({short_label(v.deviation_label)})" if live is not None else "-"
         arrow = "up" if row["direction"] > 0 else "down"
         return (f"last point: target {row['target_index']} ({row[f'target_{unit}']:g} {unit}) run {row['run']} "
-                f"{arrow}  deviation {dev:+.2f} {dev_unit}")
+                f"{arrow}  deviation {dev}")
 
     def plot_data(self) -> PlotData:
         v, info = self.session.view, self.session.info
@@ -215,8 +226,9 @@ class CaptureScreen(RunScreen):
         up = [t_d for (_r, d, _i), t_d in v.deviations.items() if d > 0]
         down = [t_d for (_r, d, _i), t_d in v.deviations.items() if d < 0]
         unit = "arcsec" if info.unit == "deg" else "um"
+        what = f", {short_label(v.deviation_label)}" if v.deviation_label else ""
         return PlotData([Series(up, "green", "up"), Series(down, "yellow", "down")],
-                        x_label=f"target ({info.unit}) · deviation ({unit}), up green, down yellow", y_label=unit)
+                        x_label=f"target ({info.unit}) · dev. ({unit}{what}) up green, down yellow", y_label=unit)
 
     def refresh_view(self) -> None:
         v, info = self.session.view, self.session.info
