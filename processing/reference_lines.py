@@ -101,9 +101,13 @@ def _prefilter(x: np.ndarray, z: np.ndarray) -> np.ndarray:
     t = scale * np.concatenate([-(2.0 ** np.arange(-2, 6)), [0.0], 2.0 ** np.arange(-2, 6)])
     keep = np.zeros(len(x), dtype=bool)
     tol = 1e-12 * (float(np.max(np.abs(r))) + 1.0)
+    buf = np.empty_like(r)  # r - t x, one buffer: a large temporary per slope costs page faults, not arithmetic
     for sign in (1.0, -1.0):
         sup = {0, len(x) - 1}
-        sup.update(int(np.argmax(sign * (r - ti * x))) for ti in t)
+        for ti in t:
+            np.multiply(x, -ti, out=buf)
+            buf += r
+            sup.add(int(np.argmax(buf) if sign > 0 else np.argmin(buf)))
         s = np.array(sorted(sup))
         keep |= sign * (r - np.interp(x, x[s], r[s])) >= -tol
     return np.flatnonzero(keep)
