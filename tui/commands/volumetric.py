@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import shlex
 import sys
 from pathlib import Path
@@ -28,6 +29,12 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("give --out DIR (grid or --export) or --at POSITIONS")
     if args.json and args.at is None:
         raise UserError("--json goes with --at (the grid writes DIR/summary.json)")
+    if args.at is not None and (args.out is not None or args.set):
+        raise UserError(f"--at prints one pose; {'--out' if args.out is not None else '--set'} goes with the grid "
+                        "or --export (run them separately)")
+    for option, value in (("--temperature-c", args.temperature_c), ("--time-h", args.time_h)):
+        if value is not None and not math.isfinite(value):
+            raise UserError(f"{option} {value}: give a finite number")
     machine = load_machine(args.machine, conditions={"temperature_c": args.temperature_c, "time_h": args.time_h})
     method = "exact" if args.exact else "first-order"
     if args.at is not None:
