@@ -1,9 +1,10 @@
 """A machine whose axes are simulated runs recovers the errors that were put in.
 
-The runs are made with the simulated rig that exists (``guideway simulate`` does not exist yet):
-two ISO 230-2 positioning runs by ``guideway acquire positioning --simulate --auto`` with an error
-curve chosen in the set-up's [simulation] table (no noise, no thermal drift), and one straightness
-run of the simulated world (``guideway demo`` path, noise off).  The machine file takes
+The runs are made with the simulated rig behind its real transports: two ISO 230-2 positioning runs
+by ``guideway acquire positioning --simulate --auto`` with an error curve chosen in the set-up's
+[simulation] table (no noise, no thermal drift), and one straightness run of the simulated world
+(``guideway demo`` path, noise off); tests/test_volumetric_guideway_simulate.py does the same with
+``guideway simulate`` runs of scenario files.  The machine file takes
 
 * axis X (workpiece chain): EXX from the X positioning run; EYX (the guideway profile), EAX
   (roll) and ECX (pitch) from the straightness run, run frame = machine frame;
