@@ -29,6 +29,7 @@ from processing.volumetric.chain import element_values
 from tui.cli import main
 
 from .controller_parsers import read_linuxcnc_comp
+from .volumetric_xz import xz_first_order, xz_machine
 
 X_TARGETS = [0.0, 48.0, 101.5, 149.0, 203.0, 251.0, 298.5, 352.0, 400.0]
 Z_TARGETS = [0.0, 52.0, 98.0, 151.0, 203.0, 249.0, 300.0]
@@ -97,36 +98,14 @@ waves = [[2.5, 380.0, 0.7], [0.6, 150.0, 2.0]]
 slope_urad = 6.0
 """
 
-MACHINE = """kind = "machine"
-name = "X-Z machine from guideway simulate runs"
-[tool]
-offset_mm = [0.0, 0.0, -80.0]
-[frame]
-primary = "X"
-secondary = "Z"
-[[squareness]]
-axes = ["X", "Z"]
-value_urad = 15.0
-[[workpiece_chain]]
-name = "X"
-type = "prismatic"
-direction = "+X"
-range = [0.0, 400.0]
-[workpiece_chain.errors]
-EX = { run = "x-pos", channel = "linear" }
+MACHINE = xz_machine("X-Z machine from guideway simulate runs", """EX = { run = "x-pos", channel = "linear" }
 EY = { run = "x-str", channel = "straightness" }
 EB = { run = "x-pos", channel = "yaw" }
 EC = { run = "x-pos", channel = "pitch" }
-[[tool_chain]]
-name = "Z"
-type = "prismatic"
-direction = "+Z"
-range = [0.0, 300.0]
-[tool_chain.errors]
-EZ = { run = "z-pos", channel = "linear" }
+""", """EZ = { run = "z-pos", channel = "linear" }
 EA = { run = "z-pos", channel = "pitch" }
 EB = { run = "z-pos", channel = "yaw" }
-"""
+""", extra='[frame]\nprimary = "X"\nsecondary = "Z"\n[[squareness]]\naxes = ["X", "Z"]\nvalue_urad = 15.0\n')
 S_XZ = 15.0
 SENSOR_X_MM = 150.0  # the sample point's place on the block: the first station samples the surface there
 
@@ -207,24 +186,19 @@ def test_every_element_is_the_error_put_into_the_scenarios(machine_dir: Path) ->
 
 
 def expected_error(model, x: float, z: float) -> np.ndarray:  # noqa: ANN001
-    """Rigid-body first order, written here: tool point (0, 0, z - 80) in the machine frame, the X table's
-    frame origin at (x, 0, 0), the Z carriage's at (0, 0, z).  A tool-chain error adds δ + ε × (tool - its
-    origin), a workpiece-chain error subtracts it; the squareness tilts Z so that it gains -z·S along X.
-    Each curve is the truth at the run's points, linear in between (ends held), as the model documents."""
+    """Rigid-body first order (tests/volumetric_xz.py), the tool 80 mm below the Z carriage.  Each curve
+    is the truth at the run's points, linear in between (ends held), as the model documents."""
     xt, zt = np.array(X_TARGETS), np.array(Z_TARGETS)
     xs, h = profile_nodes(model)
 
     def at(q: float, nodes: np.ndarray, truth: np.ndarray) -> float:
         return float(np.interp(q, nodes, truth))
 
-    tool = np.array([0.0, 0.0, z - 80.0])
-    d_x = np.array([at(x, xt, lin_x(xt)), at(x, xs, h), 0.0])
-    e_x = np.array([0.0, at(x, xt, yaw_x(xt)), at(x, xt, pitch_x(xt))]) * 1e-6
-    d_z = np.array([0.0, 0.0, at(z, zt, lin_z(zt))])
-    e_z = np.array([-at(z, zt, pitch_z(zt)), at(z, zt, yaw_z(zt)), 0.0]) * 1e-6
-    tool_part = d_z + np.cross(e_z, tool - np.array([0.0, 0.0, z])) * 1e3
-    workpiece_part = d_x + np.cross(e_x, tool - np.array([x, 0.0, 0.0])) * 1e3
-    return tool_part - workpiece_part + np.array([-z * S_XZ * 1e-3, 0.0, 0.0])
+    return xz_first_order(x, z, -80.0,
+                          d_x=np.array([at(x, xt, lin_x(xt)), at(x, xs, h), 0.0]),
+                          e_x=np.array([0.0, at(x, xt, yaw_x(xt)), at(x, xt, pitch_x(xt))]),
+                          d_z=np.array([0.0, 0.0, at(z, zt, lin_z(zt))]),
+                          e_z=np.array([-at(z, zt, pitch_z(zt)), at(z, zt, yaw_z(zt)), 0.0]), s_xz_urad=S_XZ)
 
 
 def test_volumetric_error_over_the_targets_and_at_one_pose(machine_dir: Path,
