@@ -29,6 +29,11 @@ EXAMPLE = str(ROOT / "docs" / "machine-example.toml")
     (["--out", "d", "--grid", "1"], "--grid 1: need at least 2 points per axis"),
     (["--out", "d", "--grid", "2000"], "the limit is 2000000, use a smaller --grid"),
     (["--out", "d", "--set", "X=1", "--set", "Y=1", "--set", "Z=-1", "--set", "C=0"], "every axis is fixed"),
+    (["--at", "X=1", "X=2"], "--at: axis X is given twice"),
+    (["--at", "1", "--out", "d"], "--at prints one pose; --out goes with the grid or --export"),
+    (["--at", "1", "--set", "X=1"], "--at prints one pose; --set goes with the grid or --export"),
+    (["--at", "1", "--time-h", "nan"], "--time-h nan: give a finite number"),
+    (["--out", "d", "--temperature-c", "inf"], "--temperature-c inf: give a finite number"),
 ])
 def test_bad_options_are_one_line_errors(args: list[str], message: str, capsys: pytest.CaptureFixture[str],
                                          tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -42,7 +47,7 @@ def test_missing_machine_file_and_traceback_free_failure(tmp_path: Path) -> None
     res = subprocess.run([sys.executable, "-m", "tui.cli", "volumetric", str(tmp_path / "none.toml"), "--at", "0"],
                          cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert res.returncode == 2 and "Traceback" not in res.stderr
-    assert res.stderr.strip() == f"guideway: error: {tmp_path / 'none.toml'}: no such setup file"
+    assert res.stderr.strip() == f"guideway: error: {tmp_path / 'none.toml'}: no such machine file"
 
 
 def test_grid_over_the_rotary_axis_when_every_prismatic_axis_is_held(tmp_path: Path,

@@ -1,9 +1,10 @@
 """A machine whose axes are simulated runs recovers the errors that were put in.
 
-The runs are made with the simulated rig that exists (``guideway simulate`` does not exist yet):
-two ISO 230-2 positioning runs by ``guideway acquire positioning --simulate --auto`` with an error
-curve chosen in the set-up's [simulation] table (no noise, no thermal drift), and one straightness
-run of the simulated world (``guideway demo`` path, noise off).  The machine file takes
+The runs are made with the simulated rig behind its real transports: two ISO 230-2 positioning runs
+by ``guideway acquire positioning --simulate --auto`` with an error curve chosen in the set-up's
+[simulation] table (no noise, no thermal drift), and one straightness run of the simulated world
+(``guideway demo`` path, noise off); tests/test_volumetric_guideway_simulate.py does the same with
+``guideway simulate`` runs of scenario files.  The machine file takes
 
 * axis X (workpiece chain): EXX from the X positioning run; EYX (the guideway profile), EAX
   (roll) and ECX (pitch) from the straightness run, run frame = machine frame;
@@ -34,6 +35,7 @@ from processing.volumetric.evaluate import first_order
 from tui.cli import main
 
 from .controller_parsers import read_linuxcnc_comp
+from .volumetric_xz import xz_first_order, xz_machine
 
 SETUP = """kind = "positioning"
 machine = "simulated X-Z machine"
@@ -59,31 +61,15 @@ thermal_per_m_per_h = 0.0
 noise = 0.0
 """
 
-MACHINE = """kind = "machine"
-name = "simulated X-Z machine"
-[tool]
-offset_mm = [0.0, 0.0, -80.0]
-[[workpiece_chain]]
-name = "X"
-type = "prismatic"
-direction = "+X"
-range = [0.0, 400.0]
-[workpiece_chain.errors]
-EX = { run = "x-pos", channel = "linear" }
+MACHINE = xz_machine("simulated X-Z machine", """EX = { run = "x-pos", channel = "linear" }
 EY = { run = "str", channel = "straightness" }
 EA = { run = "str", channel = "roll" }
 EC = { run = "str", channel = "pitch" }
-[[tool_chain]]
-name = "Z"
-type = "prismatic"
-direction = "+Z"
-range = [0.0, 300.0]
-[tool_chain.errors]
-EZ = { run = "z-pos", channel = "linear" }
+""", """EZ = { run = "z-pos", channel = "linear" }
 EX = { run = "str", channel = "strz", line = "none" }
 EA = { run = "str", channel = "pitch" }
 EB = { run = "str", channel = "yaw" }
-"""
+""")
 
 STATIONS = 6
 
@@ -153,10 +139,8 @@ def test_every_element_is_the_error_put_in(machine_dir: tuple[Path, dict]) -> No
 
 
 def expected_error(truth: dict, x: float, z: float) -> np.ndarray:
-    """Rigid-body first order, written here: the tool point sits at (0, 0, z - 80) in the machine frame,
-    the X table's frame origin at (x, 0, 0); a tool-chain error adds δ + ε × (tool - origin of Z),
-    a workpiece-chain error subtracts δ + ε × (tool - origin of X).  um, urad, mm.  Every error curve
-    is the truth at the measured points, linear in between (ends held), as the model documents."""
+    """Rigid-body first order (tests/volumetric_xz.py), the tool 80 mm below the Z carriage.  Every error
+    curve is the truth at the measured points, linear in between (ends held), as the model documents."""
     xs, h = truth["profile"]
     xn = truth["x_nominal"]
 
@@ -167,14 +151,11 @@ def expected_error(truth: dict, x: float, z: float) -> np.ndarray:
         nodes = truth[f"{axis}_targets"]
         return curve(np.array([truth[axis](p) for p in nodes]), q, nodes)
 
-    tool = np.array([0.0, 0.0, z - 80.0])
-    d_x = np.array([positioning("X", x), curve(h, x, xs), 0.0])
-    e_x = np.array([curve(truth["roll"], x), 0.0, curve(truth["pitch"], x)]) * 1e-6
-    d_z = np.array([-curve(truth["strz"], z), 0.0, positioning("Z", z)])
-    e_z = np.array([-curve(truth["pitch"], z), curve(truth["yaw"], z), 0.0]) * 1e-6
-    tool_part = d_z + np.cross(e_z, tool - np.array([0.0, 0.0, z])) * 1e3
-    workpiece_part = d_x + np.cross(e_x, tool - np.array([x, 0.0, 0.0])) * 1e3
-    return tool_part - workpiece_part
+    return xz_first_order(x, z, -80.0,
+                          d_x=np.array([positioning("X", x), curve(h, x, xs), 0.0]),
+                          e_x=np.array([curve(truth["roll"], x), 0.0, curve(truth["pitch"], x)]),
+                          d_z=np.array([-curve(truth["strz"], z), 0.0, positioning("Z", z)]),
+                          e_z=np.array([-curve(truth["pitch"], z), curve(truth["yaw"], z), 0.0]))
 
 
 def test_volumetric_error_at_the_positioning_targets(machine_dir: tuple[Path, dict]) -> None:

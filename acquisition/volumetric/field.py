@@ -221,6 +221,10 @@ def pose_positions(model: MachineModel, values: Sequence[str]) -> dict[str, floa
     else:
         pairs = [tuple(v.split("=", 1)) for v in values]  # type: ignore[misc]
     by_name = dict(zip(names, axes, strict=True))
+    given = [name for name, _ in pairs]
+    twice = [n for n in names if given.count(n) > 1]
+    if twice:
+        raise UserError(f"--at: axis {twice[0]} is given twice; give each axis once")
     for name, text in pairs:
         if name not in by_name:
             raise UserError(f"--at {name}={text}: no axis {name!r}; the axes are {' '.join(names)}")

@@ -49,6 +49,8 @@ class MachineFile:
 def load_machine(path: Path | str, *, conditions: dict[str, float | None] | None = None) -> MachineFile:
     """Read and validate ``path``; ``conditions`` (None values ignored) override the file's [conditions]."""
     path = Path(path)
+    if not path.is_file():
+        raise SetupError(f"{path}: no such machine file" + (" (it is a directory)" if path.is_dir() else ""))
     data = read_toml(path)
     return machine_from_dict(data, str(path), base_dir=path.parent, overrides=conditions)
 
@@ -61,7 +63,7 @@ def machine_from_dict(data: dict[str, Any], source: str, *, base_dir: Path = Pat
         raise SetupError(f"{source}: kind is {kind!r}; guideway volumetric needs a machine file (kind = \"machine\")")
     name = top.get("name", str, "")
     cond_t = top.table("conditions")
-    conds = {k: cond_t.get(k, float, v) for k, v in CONDITIONS.items()}
+    conds = {k: _finite(cond_t, k, v) for k, v in CONDITIONS.items()}
     for k, v in (overrides or {}).items():
         if v is not None:
             conds[k] = float(v)
@@ -98,7 +100,7 @@ def machine_from_dict(data: dict[str, Any], source: str, *, base_dir: Path = Pat
         pair = sq.get("axes", list, required=True)
         if len(pair) != 2 or not all(isinstance(n, str) for n in pair):
             raise SetupError(f"{source}: [squareness {i + 1}] axes must be two axis names, got {pair!r}")
-        value = sq.get("value_urad", float, required=True)
+        value = _finite(sq, "value_urad", required=True)
         sq.check_unknown()
         try:
             elements.append(squareness_element(bodies, (pair[0], pair[1]), value, primary, secondary))  # type: ignore[arg-type]
@@ -116,6 +118,14 @@ def machine_from_dict(data: dict[str, Any], source: str, *, base_dir: Path = Pat
 
 def _number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool) and bool(np.isfinite(v))
+
+
+def _finite(t: _Table, key: str, default: Any = ..., *, required: bool = False) -> float:
+    """A number of the table (TOML allows nan and inf, which would make every result nan)."""
+    v = t.get(key, float, default, required=required)
+    if not np.isfinite(v):
+        raise SetupError(f"{t.source}: [{t.name}] {key} must be a finite number, got {v!r}")
+    return float(v)
 
 
 class _Reader:
@@ -181,7 +191,7 @@ class _Reader:
                             "terms ([[squareness]]), a constant offset has no effect on its motion")
         for c in COMPONENTS:
             if c in location.data:
-                v = location.get(c, float)
+                v = _finite(location, c)
                 out.append(component_element(body, c, "location", Constant(v), "constant", "scalar"))
         location.check_unknown()
         for c in COMPONENTS:
@@ -282,6 +292,8 @@ class _Reader:
             raise self.fail(where, f"travel {_axis_text(travel)} is not along the axis {body.name} "
                             f"({body.direction_text()})")
         default_up = None if travel[1] != 0 else "+Y"
+        if default_up is None and spec.get("channel") == "linear":
+            default_up = "+Z"  # the linear channel lies along the travel, whatever the run's up was
         up_text = spec.get("up", default_up)
         if up_text is None:
             raise self.fail(where, f"up: the run travels along {_axis_text(travel)}; say which machine axis the "

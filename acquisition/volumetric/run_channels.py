@@ -92,6 +92,12 @@ def run_curve(cache: RunCache, path: Path, channel: str, *, axis_kind: str, wher
     if line not in LINES:
         raise SetupError(f"{where}: line must be one of {', '.join(LINES)}, got {line!r}")
     run, evaluation = cache.evaluated(path, method)
+    if run.kind == "positioning" and travel_sign < 0:
+        raise SetupError(f"{where}: {path} is a positioning run: its deviations are along the axis's own direction "
+                         "(the targets are axis positions); leave travel out")
+    if run.kind == "positioning" and start != 0.0:
+        raise SetupError(f"{where}: {path} is a positioning run: its targets are axis positions already; start is "
+                         "for straightness runs")
     if run.kind == "positioning":
         x, v, what = _positioning(run, evaluation, channel, direction, axis_kind, where)
     else:

@@ -5,8 +5,9 @@ q_j alone.  From the model it holds e_j(q_j) = s_j · (Δ · u_j) with every oth
 reference position: Δ the tool-relative-to-workpiece error in the machine frame, u_j the axis
 direction in the machine frame, s_j = +1 for a tool-chain axis and −1 for a workpiece-chain one
 (moving a table by +q moves the tool by −q relative to the workpiece).  So e_j is the axis's
-own error in the ISO 230-2 sense (actual − commanded along the axis; a rotary axis: angle,
-arcsec), e.g. e_X = EXX for an X axis in either chain.
+own error in the ISO 230-2 sense at the tool point (actual − commanded along the axis; a rotary
+axis: angle, arcsec), e.g. e_X = EXX + r_z·EBX − r_y·ECX for an X axis in either chain: its
+positioning error plus the Abbe terms of its angles, r the tool point's offset from the carriage.
 
 What such a table cannot hold, per element (first order): the part of its contribution along u_j
 that depends on the other axes (straightness of Z read along X, Abbe terms z·εy, squareness

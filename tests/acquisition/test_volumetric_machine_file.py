@@ -100,6 +100,13 @@ range = [0.0, 100.0]
     ("[tool_chain.errors]\nEY = { run = \"r\", channel = \"stry\", line = \"best\" }\n",
      "line must be one of least_squares, endpoint, none"),
     ("[tool_chain.errors]\nEY = { run = \"r\", channel = \"stry\", start = \"x\" }\n", "start must be a number"),
+    # TOML allows nan and inf; taken as they are they made every result nan (or inf)
+    ("[[tool_chain]]\nname = \"S\"\ntype = \"fixed\"\n[tool_chain.location]\nEX = nan\n",
+     "[tool_chain S location] EX must be a finite number, got nan"),
+    ("[conditions]\ntemperature_c = nan\n", "[conditions] temperature_c must be a finite number"),
+    ("[[tool_chain]]\nname = \"Y\"\ntype = \"prismatic\"\ndirection = \"+Y\"\nrange = [0.0, 1.0]\n"
+     "[frame]\nprimary = \"X\"\nsecondary = \"Y\"\n[[squareness]]\naxes = [\"X\", \"Y\"]\nvalue_urad = inf\n",
+     "[squareness 1] value_urad must be a finite number, got inf"),
 ])
 def test_bad_machine_files_give_one_line_errors(tmp_path: Path, extra: str, message: str) -> None:
     with pytest.raises(SetupError) as info:

@@ -96,6 +96,9 @@ def test_run_frame_of_a_vertical_axis_maps_every_channel(y_run: Path) -> None:
 def test_a_run_along_y_must_say_where_its_up_was(y_run: Path) -> None:
     with pytest.raises(SetupError, match="say which machine axis the run's Y"):
         machine(Y_AXIS + 'EZ = { run = "y-pos", channel = "stry" }\n', y_run.parent)
+    # ... except for the linear channel, which lies along the travel whatever the up (docs/machine-example.toml)
+    model = machine(Y_AXIS + 'EY = { run = "y-pos", channel = "linear" }\n', y_run.parent)
+    assert values(model, "Y", 200.0)["EYY"] == pytest.approx(2.0, abs=1e-9)
     with pytest.raises(SetupError, match="channel stry of this run measures EZ of axis Y.*put it under EZ"):
         machine(Y_AXIS + 'EX = { run = "y-pos", channel = "stry", up = "+Z" }\n', y_run.parent)
 
@@ -134,3 +137,13 @@ def test_straightness_run_travelling_backwards_from_a_start_position(tmp_path: P
     with pytest.raises(SetupError, match="is a straightness run; the linear"):
         machine(body.replace('EY = { run = "str", channel = "straightness"', 'EX = { run = "str", channel = "linear"'),
                 tmp_path)
+
+
+@pytest.mark.parametrize(("option", "message"), [
+    ('travel = "-Y"', "is a positioning run: its deviations are along the axis's own direction"),
+    ("start = 50.0", "is a positioning run: its targets are axis positions already"),
+])
+def test_a_positioning_run_takes_no_straightness_run_placement(y_run: Path, option: str, message: str) -> None:
+    """travel against the axis flipped the sign of the deviation, start shifted nothing: both are refused."""
+    with pytest.raises(SetupError, match=message):
+        machine(Y_AXIS + f'EY = {{ run = "y-pos", channel = "linear", up = "+Z", {option} }}\n', y_run.parent)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import shlex
 import sys
 from pathlib import Path
@@ -28,6 +29,12 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("give --out DIR (grid or --export) or --at POSITIONS")
     if args.json and args.at is None:
         raise UserError("--json goes with --at (the grid writes DIR/summary.json)")
+    if args.at is not None and (args.out is not None or args.set):
+        raise UserError(f"--at prints one pose; {'--out' if args.out is not None else '--set'} goes with the grid "
+                        "or --export (run them separately)")
+    for option, value in (("--temperature-c", args.temperature_c), ("--time-h", args.time_h)):
+        if value is not None and not math.isfinite(value):
+            raise UserError(f"{option} {value}: give a finite number")
     machine = load_machine(args.machine, conditions={"temperature_c": args.temperature_c, "time_h": args.time_h})
     method = "exact" if args.exact else "first-order"
     if args.at is not None:
@@ -58,14 +65,20 @@ def _at(machine, args: argparse.Namespace, method: str) -> int:  # noqa: ANN001
     pose = ", ".join(f"{k} = {v:g} {units[k]}" for k, v in obj["pose"].items())
     e = obj["error"]
     print(f"{machine.model.name or machine.path}: error at {pose} ({method}, {args.frame} frame)")
-    print(f"  position    dx {e['dx_um']:+9.3f}  dy {e['dy_um']:+9.3f}  dz {e['dz_um']:+9.3f}  |d| {e['d_um']:8.3f} um")
-    print(f"  orientation ex {e['ex_urad']:+9.3f}  ey {e['ey_urad']:+9.3f}  ez {e['ez_urad']:+9.3f}  "
+    print(f"  position    dx {_signed(e['dx_um'], 9)}  dy {_signed(e['dy_um'], 9)}  dz {_signed(e['dz_um'], 9)}  "
+          f"|d| {e['d_um']:8.3f} um")
+    print(f"  orientation ex {_signed(e['ex_urad'], 9)}  ey {_signed(e['ey_urad'], 9)}  ez {_signed(e['ez_urad'], 9)}  "
           f"|e| {e['e_urad']:8.3f} urad")
     print(f"  largest contributions (first order), of {len(obj['contributions'])} elements:")
     for r in obj["contributions"][:TOP_ELEMENTS]:
-        print(f"    {r['element']:<8} {r['value']:+10.3f} {r['unit']:<5} -> dx {r['dx_um']:+8.3f} dy {r['dy_um']:+8.3f}"
-              f" dz {r['dz_um']:+8.3f} um, |e| {r['e_urad']:.3f} urad   {r['source']}")
+        print(f"    {r['element']:<8} {_signed(r['value'], 10)} {r['unit']:<5} -> dx {_signed(r['dx_um'], 8)} "
+              f"dy {_signed(r['dy_um'], 8)} dz {_signed(r['dz_um'], 8)} um, |e| {r['e_urad']:.3f} urad   {r['source']}")
     return 0
+
+
+def _signed(v: float, width: int) -> str:
+    """``v`` to 3 decimals with its sign; a value that rounds to zero is +0.000 (not -0.000 from -1e-17)."""
+    return f"{round(v, 3) + 0.0:+{width}.3f}"
 
 
 def _grid(machine, args: argparse.Namespace, method: str, fixed: dict[str, float]) -> int:  # noqa: ANN001
