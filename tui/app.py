@@ -154,7 +154,7 @@ class GuidewayApp(App[None]):
             else:
                 setup = positioning_setup_from_dict(run.meta.get("setup_source") or {}, f"{run_dir}/run.json")
         except Exception as exc:  # noqa: BLE001 - shown, not raised: the browser stays usable
-            self.notify(f"cannot resume {run_dir}: {exc}", severity="error")
+            self.notify(f"cannot resume {run_dir}: {exc}", severity="error", markup=False)
             return
         simulated = "simulation" in run.meta or self.simulate
         session = RunSession(self.post_message, plan_info(setup, len(run.points)), None, run_dir,
@@ -220,7 +220,7 @@ class GuidewayApp(App[None]):
                     f"resumed (c on the Runs screen)")
         if outcome is None and not (message.run_dir / "run.json").exists():
             self._switch("setup")
-            self.notify(note, severity="error", timeout=10)
+            self.notify(note, severity="error", timeout=10, markup=False)
             return
         self.open_results(message.run_dir, note)
 

@@ -13,6 +13,7 @@ from typing import Any
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal
+from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import Digits, Footer, Header, ProgressBar, Sparkline, Static
 
@@ -83,11 +84,11 @@ class RunScreen(Screen):
             return "[dim]working...[/dim]" if self.session.view.state != "paused" else "[yellow]paused[/yellow]"
         keys = {"capture": "Space", "done": "Space", "started": "Space", "redo": "r", "skip": "s", "pause": "p",
                 "abort": "a"}
-        choices = "   ".join(f"[b]{keys.get(c, c)}[/b] {c}" for c in q.choices)
-        return f"{q.text}\n{choices}"
+        choices = "   ".join(f"[b]{escape(keys.get(c, c))}[/b] {escape(c)}" for c in q.choices)
+        return f"{escape(q.text)}\n{choices}"
 
     def log_text(self, lines: int) -> str:
-        return "\n".join(list(self.session.view.log)[-lines:])
+        return "\n".join(escape(line) for line in list(self.session.view.log)[-lines:])
 
     def refresh_view(self) -> None:  # pragma: no cover - overridden
         pass
@@ -250,7 +251,7 @@ class CaptureScreen(RunScreen):
             value = f"{ifm.position_mm:+.4f}" if ifm is not None else "-.----"
             status = "interferometer position mm\n" + interferometer_lines(r)[0].replace("interferometer: ", "")
         self.query_one("#live", Digits).update(value)
-        problem = f"\n[red]{r.problem}[/red]" if r is not None and r.problem else ""
+        problem = f"\n[red]{escape(r.problem)}[/red]" if r is not None and r.problem else ""
         self.query_one("#live-status", Static).update(status + problem)
         self.query_one("#last", Static).update(self.last_text())
         self.query_one("#plot", Plot).show(self.plot_data())

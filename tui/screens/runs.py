@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from rich.text import Text
 from textual.app import ComposeResult
 from textual.binding import Binding
+from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Static
 
@@ -43,11 +45,13 @@ class RunsScreen(Screen):
         table.clear()
         for r in self.runs:
             status = r.problem or r.status
-            table.add_row(r.path.name, r.kind or "?", r.created.replace("T", " ").removesuffix("Z"), status,
-                          str(r.points), r.machine, r.axis)
+            cells = (r.path.name, r.kind or "?", r.created.replace("T", " ").removesuffix("Z"), status,
+                     str(r.points), r.machine, r.axis)
+            table.add_row(*(Text(c) for c in cells))  # as they are: a str cell would be read as markup
         n = len(self.runs)
         self.query_one("#runs-title", Static).update(
-            f"{n} run(s) in {self.runs_dir}" if n else f"no runs in {self.runs_dir} yet (F2: set up a run)")
+            f"{n} run(s) in {escape(str(self.runs_dir))}" if n
+            else f"no runs in {escape(str(self.runs_dir))} yet (F2: set up a run)")
 
     def selected(self) -> RunSummary | None:
         table = self.query_one(DataTable)
@@ -69,6 +73,7 @@ class RunsScreen(Screen):
         if r is None:
             return
         if not r.resumable:
-            self.notify(f"{r.path.name} is {r.problem or r.status}; nothing to resume", severity="warning")
+            self.notify(f"{r.path.name} is {r.problem or r.status}; nothing to resume", severity="warning",
+                        markup=False)
             return
         self.app.resume_run(r.path)  # type: ignore[attr-defined]

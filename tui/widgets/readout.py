@@ -1,9 +1,12 @@
 """Text of the live readings: sensor value and status, every interferometer channel, status flags,
-environment (the formats of ``guideway devices probe``)."""
+environment (the formats of ``guideway devices probe``), as Textual markup: text from the devices
+is escaped (the status flags are written in brackets)."""
 
 from __future__ import annotations
 
 import math
+
+from textual.markup import escape
 
 from acquisition.monitor import LiveReading
 from acquisition.probe import status_flags
@@ -23,7 +26,7 @@ def interferometer_lines(r: LiveReading | None) -> list[str]:
     if ifm is None:
         return ["interferometer: [dim]waiting for a reading[/dim]"]
     return [
-        f"interferometer: {status_flags(ifm.status)}",
+        f"interferometer: {escape(status_flags(ifm.status))}",
         f"  position {ifm.position_mm:+.6f} mm  stry {ifm.stry_um:+.3f} um  strz {ifm.strz_um:+.3f} um",
         f"  pitch {ifm.pitch_urad:+.2f} urad  yaw {ifm.yaw_urad:+.2f} urad  roll {ifm.roll_urad:+.2f} urad",
         f"  air {ifm.air_temp_c:.3f} C  {ifm.air_pressure_hpa:.2f} hPa  {ifm.humidity_pct:.1f} %RH  "
@@ -34,7 +37,7 @@ def interferometer_lines(r: LiveReading | None) -> list[str]:
 def readout_text(r: LiveReading | None, *, sensor: bool = True) -> str:
     lines = ([sensor_line(r)] if sensor else []) + interferometer_lines(r)
     if r is not None and r.problem:
-        lines.append(f"[red]{r.problem}[/red]")
+        lines.append(f"[red]{escape(r.problem)}[/red]")
     return "\n".join(lines)
 
 
