@@ -14,6 +14,7 @@ from __future__ import annotations
 import collections
 import contextlib
 import io
+import math
 import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -72,6 +73,19 @@ class RunPlanInfo:
     warmup: bool = False
     step_mm: float = 0.0  # straightness: block length (x of station k = k * step_mm)
     points_before: int = 0  # resumed run: points already on disk
+    datum: float = 0.0  # positioning: axis position (mm or deg) where the interferometer was zeroed
+
+    @property
+    def rotary(self) -> bool:
+        return self.kind == "positioning" and self.unit == "deg"
+
+    def axis_reading(self, reading: LiveReading | None) -> float:
+        """Positioning: where the axis is by a live reading, as the plan records a capture (``reading_mm`` /
+        ``reading_deg``: the datum plus the interferometer position, or plus the rotary angle); NaN without one."""
+        ifm = reading.interferometer if reading is not None else None
+        if ifm is None:
+            return math.nan
+        return self.datum + (reading.angle_deg if self.rotary else ifm.position_mm)
 
 
 @dataclass
@@ -81,7 +95,8 @@ class SessionView:
     question: Instruct | Prompt | None = None
     ticket: int = 0
     reading: LiveReading | None = None
-    sensor_history: collections.deque[float] = field(default_factory=lambda: collections.deque(maxlen=120))
+    # the live value over time: the sensor (straightness) or the axis reading (positioning)
+    live_history: collections.deque[float] = field(default_factory=lambda: collections.deque(maxlen=120))
     warmup: dict[str, Any] = field(default_factory=dict)
     heights: dict[tuple[int, int], float] = field(default_factory=dict)  # (pass, station) -> um
     # (run, direction, target index) -> (target, live deviation: um environment-compensated, or arcsec)
@@ -160,7 +175,7 @@ class RunSession:
     def _attach(self, engine: RunEngine) -> Iterator[None]:
         self.engine = engine
         self.monitor = LiveMonitor(engine.rig, lambda r: self.post(LiveReadingArrived(r)),
-                                   interval_s=self.live_interval_s)
+                                   interval_s=self.live_interval_s, angle=self.info.rotary)
         with self.monitor:
             yield
 
@@ -198,9 +213,10 @@ class RunSession:
     def apply(self, message: Any) -> None:
         v = self.view
         if isinstance(message, LiveReadingArrived):
-            v.reading = message.reading
-            if message.reading.has_sensor and message.reading.sensor_mean_mm == message.reading.sensor_mean_mm:
-                v.sensor_history.append(message.reading.sensor_mean_mm)
+            v.reading = r = message.reading
+            live = r.sensor_mean_mm if self.info.kind == "straightness" else self.info.axis_reading(r)
+            if math.isfinite(live):
+                v.live_history.append(live)
         elif isinstance(message, OperatorQuestion):
             v.question, v.ticket = message.question, message.ticket
         elif isinstance(message, LogLine):

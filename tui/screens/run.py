@@ -21,7 +21,7 @@ from acquisition.messages import Instruct
 
 from ..session import RunSession
 from ..widgets.plot import Plot, PlotData, Series
-from ..widgets.readout import bar, interferometer_lines, readout_text, sensor_line
+from ..widgets.readout import bar, controller_state, readout_text, sensor_line
 
 STATE_TEXT = {
     "connecting": "[b yellow]CONNECTING[/b yellow] — opening the devices",
@@ -160,7 +160,7 @@ class ConnectScreen(RunScreen):
                 f"  sensor         {bar(w.get('drift_sensor_um', nan), w.get('max_drift_sensor_um', 0.0))}")
         else:
             self.query_one("#drift", Static).update("[dim]no warm-up in this set-up[/dim]")
-        self.query_one("#history", Sparkline).data = list(v.sensor_history)
+        self.query_one("#history", Sparkline).data = list(v.live_history)
         self.query_one("#log", Static).update(self.log_text(3))
 
 
@@ -235,7 +235,7 @@ class CaptureScreen(RunScreen):
         unit = "arcsec" if info.unit == "deg" else "um"
         what = f", {short_label(v.deviation_label)}" if v.deviation_label else ""
         return PlotData([Series(up, "green", "up"), Series(down, "yellow", "down")],
-                        x_label=f"target ({info.unit}) · dev. ({unit}{what}) up green, down yellow", y_label=unit)
+                        x_label=f"target ({info.unit}) · dev. ({unit}{what}) ↑ green, ↓ yellow", y_label=unit)
 
     def refresh_view(self) -> None:
         v, info = self.session.view, self.session.info
@@ -246,10 +246,13 @@ class CaptureScreen(RunScreen):
         if info.kind == "straightness":
             value = f"{r.sensor_mm:+.4f}" if r is not None and math.isfinite(r.sensor_mm) else "-.----"
             status = sensor_line(r).replace("sensor: ", "sensor mm\n", 1)
-        else:
-            ifm = r.interferometer if r is not None else None
-            value = f"{ifm.position_mm:+.4f}" if ifm is not None else "-.----"
-            status = "interferometer position mm\n" + interferometer_lines(r)[0].replace("interferometer: ", "")
+        else:  # where the axis is, in the frame of the targets (the reading the plan records)
+            axis = info.axis_reading(r)
+            digits = 5 if info.rotary else 4  # 0.04 arcsec, 0.1 um
+            value = f"{axis:+.{digits}f}" if math.isfinite(axis) else "-." + "-" * digits
+            what = "angle" if info.rotary else "interferometer"
+            status = (f"axis {'angle' if info.rotary else 'position'} {info.unit} (datum {info.datum:g} + {what})\n"
+                      + controller_state(r))
         self.query_one("#live", Digits).update(value)
         problem = f"\n[red]{escape(r.problem)}[/red]" if r is not None and r.problem else ""
         self.query_one("#live-status", Static).update(status + problem)
