@@ -162,6 +162,8 @@ class GuidewayApp(App[None]):
                              simulate=self.sim_options if simulated else None, resume=True,
                              live_interval_s=self.live_interval_s)
         rows = run.points.to_dict("records")
+        session.view.rows = list(rows)
+        session.view.skipped = len(run.meta.get("skipped") or [])
         if run.kind == "straightness":  # the profile so far, as the live display computes it
             live = LiveProfile(setup.geometry)
             for row in rows:

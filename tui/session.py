@@ -102,14 +102,19 @@ class SessionView:
     # (run, direction, target index) -> (target, live deviation: um environment-compensated, or arcsec)
     deviations: dict[tuple[int, int, int], tuple[float, float]] = field(default_factory=dict)
     deviation_label: str = ""  # what the live deviations are (acquisition.live.LiveDeviation.label)
-    points: int = 0
-    last_point: dict[str, Any] | None = None
+    points: int = 0  # captured in this session (a resumed run: RunPlanInfo.points_before more on disk)
+    rows: list[dict[str, Any]] = field(default_factory=list)  # the points on disk, in order
+    skipped: int = 0  # steps skipped without a point (run.json ``skipped``), resumed ones included
     state: str = "connecting"  # connecting, running, paused, finished, failed
     log: collections.deque[str] = field(default_factory=lambda: collections.deque(maxlen=LOG_LINES))
     faults: list[str] = field(default_factory=list)
     outcome: RunOutcome | None = None
     error: str = ""
     started: bool = False
+
+    @property
+    def last_point(self) -> dict[str, Any] | None:
+        return self.rows[-1] if self.rows else None
 
 
 def add_deviation(view: SessionView, row: dict[str, Any], deviation: float, label: str) -> None:
@@ -243,12 +248,14 @@ class RunSession:
         elif name == "progress" and doc.get("key") == "warmup":
             v.warmup = dict(doc["data"])
         elif name == "event":
-            row = doc["data"]
             v.points += 1
-            v.last_point = row
+            v.rows.append(doc["data"])
         elif name == "retract":
             v.points -= 1
             m = doc["match"]
+            v.rows = [r for r in v.rows if any(r.get(k) != value for k, value in m.items())]
             v.heights.pop((int(m.get("pass", 0)), int(m["station"])), None)
         elif name == "annotate" and doc.get("key") == "faults":
             v.faults = list(doc["value"])
+        elif name == "annotate" and doc.get("key") == "skipped":
+            v.skipped = len(doc["value"])

@@ -57,7 +57,7 @@ def straightness_session(stage: str) -> RunSession:
     heights = {0: 0.0, 1: -6.214, 2: -11.903}
     v.heights.update({(0, k): h for k, h in heights.items()})
     v.points = 3
-    v.last_point = {"station": 2, "pass": 0, "x_mm": 200.0, "stry_um": -2.745, "sensor_mm": 0.01207}
+    v.rows.append({"station": 2, "pass": 0, "x_mm": 200.0, "stry_um": -2.745, "sensor_mm": 0.01207})
     v.question = Instruct("place_block", "Move the block to station 3 (x = 300 mm), against the side face; "
                           "capture when it is still.", {"station": 3, "pass": 0},
                           choices=("capture", "redo", "skip", "pause", "abort"), key="station")
@@ -81,7 +81,7 @@ def rotary_session() -> RunSession:
         v.deviations[(1, 1, i)] = (t, d)
     v.deviation_label = "angular, not air-compensated"
     v.points = 3
-    v.last_point = {"run": 1, "direction": 1, "target_index": 3, "target_deg": 90.0, "reading_deg": 90.000722}
+    v.rows.append({"run": 1, "direction": 1, "target_index": 3, "target_deg": 90.0, "reading_deg": 90.000722})
     v.question = Instruct("cycle_start", "Start the part program of this cycle (guideway gcode) with Cycle Start.",
                           {}, choices=("started", "abort"), key="start")
     return s
@@ -99,7 +99,7 @@ def positioning_session() -> RunSession:
         v.deviations[(1, -1, i)] = (t, d - 2.8)
     v.deviation_label = "environment-compensated"
     v.points = 10
-    v.last_point = {"run": 1, "direction": -1, "target_index": 1, "target_mm": 0.0, "reading_mm": -0.0028}
+    v.rows.append({"run": 1, "direction": -1, "target_index": 1, "target_mm": 0.0, "reading_mm": -0.0028})
     v.question = Instruct("cycle_start", "Start the part program of this cycle (guideway gcode) with Cycle Start.",
                           {}, choices=("started", "abort"), key="start")
     return s

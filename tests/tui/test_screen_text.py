@@ -102,3 +102,70 @@ def test_runs_screen_shows_a_machine_name_with_brackets(tmp_path: Path) -> None:
 
     lines = show_screen(lambda _a: RunsScreen(tmp_path / "runs"), size=(160, 24), check=screen_lines)
     assert any("Mill [a] bed" in ln for ln in lines)
+
+
+def _event(row: dict[str, Any]) -> Any:
+    from tui.messages import RunDocument
+
+    return RunDocument("event", {"data": row})
+
+
+def test_after_a_redo_the_last_point_is_the_one_before_the_withdrawn_point() -> None:
+    from tui.messages import RunDocument
+
+    def screen(_app: Any) -> CaptureScreen:
+        s = straightness_session("warmup")  # no points yet
+        s.view.question = None
+        for k in range(3):
+            s.apply(_event({"station": k, "pass": 0, "x_mm": 100.0 * k, "stry_um": 0.1 * k, "sensor_mm": 0.001 * k}))
+        s.apply(RunDocument("retract", {"match": {"station": 2, "pass": 0}}))  # redo: station 2 is withdrawn
+        return CaptureScreen(s)
+
+    text = show_screen(screen, check=lambda app: (widget_text(app, "#last"), widget_text(app, "#step")))
+    assert text[0].startswith("last point: station 1  x 100 mm")
+    assert text[1].startswith("2 of ")
+
+
+def test_skipped_steps_count_as_done_in_the_progress() -> None:
+    from tui.messages import RunDocument
+
+    def screen(_app: Any) -> CaptureScreen:
+        s = straightness_session("warmup")
+        s.view.question = None
+        for k in range(2):
+            s.apply(_event({"station": k, "pass": 0, "x_mm": 100.0 * k, "stry_um": 0.0, "sensor_mm": 0.0}))
+        s.apply(RunDocument("annotate", {"key": "skipped", "value": [{"station": 2, "pass": 0, "reason": "r"}]}))
+        return CaptureScreen(s)
+
+    # 4 stations with a return pass: 8 steps; 2 points and 1 skipped station are 3 of them
+    progress = show_screen(screen, check=lambda app: app.screen.query_one("#progress").progress)
+    assert progress == 3
+
+
+def test_resumed_run_shows_the_points_on_disk(tmp_path: Path) -> None:
+    import pandas as pd
+
+    run = tmp_path / "runs" / "aborted"
+    shutil.copytree(ROOT / RUNS / "straightness-aborted", run)
+    points = pd.read_csv(run / "points.csv")
+    last = points.iloc[-1]
+
+    async def main() -> tuple[str, str, float]:
+        app = GuidewayApp(runs_dir=run.parent, start="runs", simulate=True, noise=False)
+        async with app.run_test(size=(80, 24)) as pilot:
+            await pilot.pause()
+            await pilot.press("c")
+            await wait_for_app(pilot, lambda: app.session is not None and app.session.view.question is not None
+                               and screen_name(app) == "QuestionScreen", what="the resume question")
+            capture = app.screen_stack[-2]
+            out = (str(capture.query_one("#step").render()), str(capture.query_one("#last").render()),
+                   capture.query_one("#progress").progress)
+            await pilot.press("a")  # abort: the run stays as it is on disk
+            await wait_for_app(pilot, lambda: screen_name(app) == "ResultsScreen"
+                               and app.screen.evaluation is not None, what="the results of the aborted run")
+            return out
+
+    step, last_text, progress = asyncio.run(main())
+    assert step.startswith(f"{len(points)} of ")
+    assert last_text.startswith(f"last point: station {int(last['station'])}  x {last['x_mm']:g} mm")
+    assert progress == len(points)

@@ -196,11 +196,11 @@ class CaptureScreen(RunScreen):
             if "station" in p:
                 where = "return pass" if p.get("pass") else "forward pass"
                 return f"Station [b]{p['station']}[/b] of {info.stations - 1} · {where}"
-            return f"{v.points} of {info.total_steps} points"
+            return f"{info.points_before + v.points} of {info.total_steps} points"
         if "target_index" in p:
             arrow = "up (+)" if p.get("direction", 1) > 0 else "down (-)"
             return f"Target [b]{p['target_index']}[/b] · run {p.get('run')} · {arrow}"
-        return f"{v.points} of {info.total_steps} points"
+        return f"{info.points_before + v.points} of {info.total_steps} points"
 
     def last_text(self) -> str:
         v = self.session.view
@@ -240,7 +240,7 @@ class CaptureScreen(RunScreen):
     def refresh_view(self) -> None:
         v, info = self.session.view, self.session.info
         self.query_one("#step", Static).update(self.step_text())
-        self.query_one("#progress", ProgressBar).update(progress=v.points + info.points_before)
+        self.query_one("#progress", ProgressBar).update(progress=info.points_before + v.points + v.skipped)
         self.query_one("#instruction", Static).update(self.instruction_text())
         r = v.reading
         if info.kind == "straightness":
