@@ -169,3 +169,25 @@ def test_resumed_run_shows_the_points_on_disk(tmp_path: Path) -> None:
     assert step.startswith(f"{len(points)} of ")
     assert last_text.startswith(f"last point: station {int(last['station'])}  x {last['x_mm']:g} mm")
     assert progress == len(points)
+
+
+def test_runs_screen_shows_every_column_in_80_columns(tmp_path: Path) -> None:
+    import json
+
+    from tui.screens.runs import RunsScreen
+
+    runs = tmp_path / "runs"
+    shutil.copytree(ROOT / RUNS / "positioning-x", runs / "positioning-20261125T134921Z")  # a default run name
+    meta = json.loads((runs / "positioning-20261125T134921Z" / "run.json").read_text())
+
+    def check(app: Any) -> tuple[Any, Any, list[str]]:
+        table = app.screen.query_one("#runs-table")
+        return table.virtual_size.width, table.size.width, screen_lines(app)
+
+    content_w, table_w, lines = show_screen(lambda _a: RunsScreen(runs), check=check)
+    assert content_w <= table_w == 80  # nothing hidden to the right
+    row = next(i for i, ln in enumerate(lines) if "positioning-20261125T134921Z" in ln)
+    two = lines[row] + " " + lines[row + 1]
+    for value in ("positioning", meta["status"], str(meta["points"]), meta["machine"], meta["axis"],
+                  meta["created"].replace("T", " ").removesuffix("Z")):
+        assert f" {value} " in two, value
