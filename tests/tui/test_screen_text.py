@@ -191,3 +191,32 @@ def test_runs_screen_shows_every_column_in_80_columns(tmp_path: Path) -> None:
     for value in ("positioning", meta["status"], str(meta["points"]), meta["machine"], meta["axis"],
                   meta["created"].replace("T", " ").removesuffix("Z")):
         assert f" {value} " in two, value
+
+
+def test_results_show_the_files_written_and_keep_the_plot(tmp_path: Path) -> None:
+    run = tmp_path / "positioning-x"
+    shutil.copytree(ROOT / RUNS / "positioning-x", run)
+
+    async def main() -> tuple[list[str], int, int]:
+        app = GuidewayApp(runs_dir=tmp_path, start="runs")
+        async with app.run_test(size=(80, 24)) as pilot:
+            app.open_results(run)
+            await wait_for_app(pilot, lambda: getattr(app.screen, "evaluation", None) is not None, what="results")
+            await pilot.pause()
+            before = app.screen.query_one("#plot").size.height
+            for key in "1234h":  # the four compensation tables and the report, one after the other
+                n = len(app.screen.written)
+                await pilot.press(key)
+                await wait_for_app(pilot, lambda n=n: len(app.screen.written) == n + 1, what=f"the file of {key}")
+            await pilot.pause()
+            await pilot.pause()
+            return screen_lines(app), before, app.screen.query_one("#plot").size.height
+
+    lines, plot_before, plot_after = asyncio.run(main())
+    written = sorted(p.relative_to(run).as_posix() for p in (run / "results").iterdir())
+    assert len(written) == 5 and "results/report.html" in written
+    # the newest path is on the screen (relative to the run directory the title names), one line each
+    assert any(ln.strip() == "written: results/report.html" for ln in lines)
+    shown = [ln.strip().removeprefix("written: ") for ln in lines if ln.strip().startswith("written: ")]
+    assert shown and set(shown) <= set(written)
+    assert plot_after >= 8 and plot_before >= 8  # the plot keeps its height: the text scrolls

@@ -99,7 +99,7 @@ class ResultsScreen(Screen):
         yield Header()
         with VerticalScroll(id="results-body"):
             yield Static(id="run-title")
-            yield Plot(id="plot", classes="results-plot")
+            yield Plot(id="plot")
             yield Static("evaluating...", id="summary")
             yield Static(id="options")
             yield Static(id="written")
@@ -161,6 +161,8 @@ class ResultsScreen(Screen):
                     f"   [b]1-4[/b] {'/'.join(FORMATS)}   [b]h[/b] report")
         self.query_one("#options", Static).update(text)
         self.query_one("#written", Static).update("\n".join(f"written: {escape(p)}" for p in self.written[-4:]))
+        if self.written:
+            self.query_one("#results-body", VerticalScroll).scroll_end(animate=False)
 
     # -- re-processing ----------------------------------------------------------------------------
     def action_method(self) -> None:
@@ -209,7 +211,8 @@ class ResultsScreen(Screen):
         except EXPECTED_ERRORS as exc:
             self.app.call_from_thread(self.notify, str(exc), severity="error", markup=False)
             return
-        self.written.append(str(path))
+        path = Path(path)  # shown relative to the run directory (the title names it) where it is inside it
+        self.written.append(str(path.relative_to(self.run_dir) if path.is_relative_to(self.run_dir) else path))
         self.app.call_from_thread(self.show_options)
 
 
