@@ -220,3 +220,33 @@ def test_results_show_the_files_written_and_keep_the_plot(tmp_path: Path) -> Non
     shown = [ln.strip().removeprefix("written: ") for ln in lines if ln.strip().startswith("written: ")]
     assert shown and set(shown) <= set(written)
     assert plot_after >= 8 and plot_before >= 8  # the plot keeps its height: the text scrolls
+
+
+def test_progress_bar_shows_its_percentage_in_80_columns() -> None:
+    # 3 of 8 steps (4 stations, forward and return pass) done: 37.5 %
+    lines = show_screen(lambda _a: CaptureScreen(straightness_session("capture")), check=screen_lines)
+    assert lines[1].rstrip().endswith(" 38%")
+
+
+def test_fault_dialog_does_not_repeat_its_title() -> None:
+    prompt = Prompt("Device fault: displacement sensor (keyence-lkg on SENSOR): no reply. Check the device, then "
+                    "retry, or abort the run.", ("retry", "abort"), key="fault", fault="displacement sensor: no reply")
+    title, text = show_screen(lambda _a: CaptureScreen(straightness_session("capture")), modal=QuestionScreen(prompt),
+                              check=lambda app: (widget_text(app, "#dialog-title"), widget_text(app, "#dialog-text")))
+    assert title == "Device fault"
+    assert text.startswith("displacement sensor (keyence-lkg on SENSOR): no reply. Check the device")
+
+
+def test_every_set_up_label_fits_its_column() -> None:
+    from tui.screens.setup import RUN_KINDS, default_source
+
+    async def labels(kind: str) -> list[tuple[str, int]]:
+        app = GuidewayApp(setup_source=default_source(kind), runs_dir=ROOT / RUNS, start="setup")
+        async with app.run_test(size=(80, 24)) as pilot:
+            await wait_for_app(pilot, lambda: getattr(app.screen, "ready", False), what="the set-up form")
+            await pilot.pause()
+            return [(str(w.render()), w.size.height) for w in app.screen.query(".label")]
+
+    for kind, _ in RUN_KINDS:
+        found = asyncio.run(labels(kind))
+        assert len(found) > 5 and [h for _, h in found] == [1] * len(found), (kind, found)

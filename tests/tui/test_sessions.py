@@ -143,7 +143,9 @@ def test_device_fault_shows_the_dialog_and_retry_loses_no_point(tmp_path: Path, 
             await wait_for_app(pilot, lambda: screen_name(app) == "ResultsScreen", what="results")
 
     asyncio.run(session())
-    assert len(seen) == 1 and seen[0].startswith("Device fault: Device fault:")
+    # the dialog says what failed under its title (the plan's "Device fault: " not repeated)
+    device = "displacement sensor (keyence-lkg on " if faults.startswith("sensor") else "controller modbus-tcp://"
+    assert len(seen) == 1 and seen[0].startswith(f"Device fault: {device}"), seen
     meta = json.loads((out / "run.json").read_text())
     assert meta["status"] == "complete" and len(meta["faults"]) == 1
     rows = (out / "points.csv").read_text().splitlines()[1:]

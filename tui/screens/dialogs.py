@@ -43,7 +43,8 @@ class QuestionScreen(ModalScreen[str]):
         title = TITLES.get(p.key, "Question")
         with Vertical(id="dialog", classes="fault" if p.fault and p.key == "fault" else ""):
             yield Static(title, id="dialog-title")
-            yield Static(escape(p.text), id="dialog-text")
+            # ("Device fault: ..." under the title "Device fault")
+            yield Static(escape(p.text.removeprefix(f"{title}: ")), id="dialog-text")
             default = p.default or p.choices[0]
             keys = "   ".join(f"[b]{k}[/b] {escape(c)}" + (" (Enter)" if c == default else "")
                              for k, c in zip(self.keys, p.choices, strict=True))

@@ -101,7 +101,8 @@ def positioning_fields(unit: str) -> list[tuple[str, list[Field]]]:
                  Field("", "operator", "operator", "str")]),
         ("Targets and runs", [
             Field("axis", f"start_{u}", f"start ({u})"), Field("axis", f"end_{u}", f"end ({u})"),
-            Field("axis", f"targets_{u}", f"targets ({u}, optional)", "list", placeholder="generated per ISO 230-2"),
+            Field("axis", f"targets_{u}", f"targets ({u})", "list",
+                  placeholder="optional: generated per ISO 230-2"),
             Field("axis", "runs", "runs per direction", "int"),
             Field("axis", "cycle", "cycle", "choice", ("linear", "step")),
             Field("axis", f"overrun_{u}", f"overrun ({u})"),
