@@ -235,7 +235,7 @@ class CaptureScreen(RunScreen):
         unit = "arcsec" if info.unit == "deg" else "um"
         what = f", {short_label(v.deviation_label)}" if v.deviation_label else ""
         return PlotData([Series(up, "green", "up"), Series(down, "yellow", "down")],
-                        x_label=f"target ({info.unit}) · dev. ({unit}{what}) ↑ green, ↓ yellow", y_label=unit)
+                        x_label=f"target ({info.unit}) · {unit}{what} · ↑ green ↓ yellow", y_label=unit)
 
     def refresh_view(self) -> None:
         v, info = self.session.view, self.session.info
