@@ -263,3 +263,29 @@ def test_app_closed_mid_run_shuts_down_cleanly_and_leaves_the_run_resumable(tmp_
     asyncio.run(session())  # (run_test re-raises an exception of the app)
     meta = json.loads((out / "run.json").read_text())
     assert meta["status"] == "aborted" and meta["points"] == 2
+
+
+def test_o_overrides_the_warm_up_and_the_run_records_it(tmp_path: Path) -> None:
+    out = tmp_path / "tui"
+    # a window of 1000 readings: the warm-up cannot become stable by itself within the test
+    source = {**STRAIGHTNESS, "block": {**STRAIGHTNESS["block"], "stations": 2, "return_pass": False},
+              "warmup": {"enabled": True, "window": 1000, "interval_s": 0.05}}
+
+    async def session() -> None:
+        app = app_for(source, out)
+        async with app.run_test(size=(80, 24)) as pilot:
+            await press_start(pilot, app)
+            await wait_for_app(pilot, lambda: screen_name(app) == "ConnectScreen", what="connect screen")
+            s = app.session
+            await wait_for_app(pilot, lambda: s.view.question is not None, what="the datum instruction")
+            await pilot.press("space")  # the block is at the datum; the warm-up starts
+            await wait_for_app(pilot, lambda: s.view.warmup.get("state") == "drifting", what="the warm-up")
+            assert "DRIFTING" in widget_text(app, "#state")
+            await pilot.press("o")
+            await wait_for_app(pilot, lambda: s.view.warmup.get("state") == "overridden", what="the override")
+            await answer_all(pilot, app)
+            await wait_for_app(pilot, lambda: screen_name(app) == "ResultsScreen", what="results")
+
+    asyncio.run(session())
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["status"] == "complete" and meta["warmup"]["overridden"] and not meta["warmup"]["stable"]
