@@ -124,9 +124,7 @@ def acknowledge(engine: RunEngine, msg: AcknowledgeInPosition) -> None:
 
 
 def read_angle(engine: RunEngine, _msg: ReadAngle) -> float:
-    ctl: Any = engine.rig.controller
-    reg = ctl.map["angle_deg"]
-    return decode_value(ctl.read_registers(reg.address, reg.count), reg.type, ctl.word_order)
+    return engine.rig.read_angle_deg()
 
 
 EXTRA_HANDLERS.update({WaitInPosition: wait_in_position, AcknowledgeInPosition: acknowledge, ReadAngle: read_angle,

@@ -35,7 +35,9 @@ class LiveReading:
     """One live look at the devices.  ``sensor_mm`` is the newest sensor value (the sensor's own
     sign; NaN with a status other than ok), ``sensor_mean_mm`` / ``sensor_count`` / ``sensor_rate_hz``
     summarise a streamed block (count 1 for a polled value); ``frames_lost`` counts frames the
-    driver saw damaged or missing in the block.  ``problem``: a device that did not answer (one line)."""
+    driver saw damaged or missing in the block.  ``angle_deg``: the rotary angle captured with
+    ``interferometer`` (deg from the datum; NaN unless the monitor reads it, a rotary set-up).
+    ``problem``: a device that did not answer (one line)."""
 
     time_s: float
     sensor_mm: float = math.nan
@@ -46,6 +48,7 @@ class LiveReading:
     frames_lost: int = 0
     interferometer: InterferometerReading | None = None
     problem: str = ""
+    angle_deg: float = math.nan
 
     @property
     def has_sensor(self) -> bool:
@@ -64,17 +67,21 @@ class LiveMonitor:
     which needs ``RS422``; None leaves the output off, for benchmarks that count every frame sent).
     ``interferometer_interval_s``: a controller capture (a triggered measurement, slower than a sensor
     value) at most this often; the readings in between carry the last one (None: no captures).
+    ``angle``: read the rotary angle captured with each of them too (a rotary positioning set-up).
     """
 
     def __init__(self, rig: Rig, on_reading: ReadingCallback, *, interval_s: float = 0.05, stream: bool = True,
-                 restore_output: str | None = "RS422", interferometer_interval_s: float | None = 0.25) -> None:
+                 restore_output: str | None = "RS422", interferometer_interval_s: float | None = 0.25,
+                 angle: bool = False) -> None:
         self.rig = rig
         self.on_reading = on_reading
         self.interval_s = interval_s
         self.stream = stream
         self.restore_output = restore_output
         self.interferometer_interval_s = interferometer_interval_s
+        self.angle = angle
         self._ifm: InterferometerReading | None = None
+        self._angle_deg = math.nan
         self._ifm_time = -math.inf
         self.readings = 0
         self.frames_received = 0  # streamed sensor values handed out (all blocks)
@@ -126,8 +133,11 @@ class LiveMonitor:
         if every is None or time.monotonic() - self._ifm_time < every:
             return self._ifm, ""
         self._ifm_time = time.monotonic()
+        self._angle_deg = math.nan
         try:
             self._ifm = self.rig.trigger_and_read()
+            if self.angle:
+                self._angle_deg = self.rig.read_angle_deg()
         except DriverError as exc:
             self._ifm = None
             return None, f"interferometer: {exc}"
@@ -146,7 +156,8 @@ class LiveMonitor:
         ifm, problem = self._interferometer()
         if problem:
             problems.append(problem)
-        return LiveReading(time.time(), **fields, interferometer=ifm, problem="; ".join(problems))
+        return LiveReading(time.time(), **fields, interferometer=ifm, problem="; ".join(problems),
+                           angle_deg=self._angle_deg if ifm is not None else math.nan)
 
     def _stream_blocks(self, sensor: Any) -> None:
         """Stream blocks of about ``interval_s`` until the engine claims the rig or the monitor stops."""

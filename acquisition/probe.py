@@ -61,12 +61,16 @@ def sensor_identity(sensor: DisplacementSensor) -> str:
                       **({"commands": family} if family else {}), **info, **read})
 
 
-def status_flags(st: ControllerStatus) -> str:
-    """The set flags of a controller status word, e.g. ``ready data-valid beam-ok``."""
+def set_flags(st: ControllerStatus) -> str:
+    """The set flags of a controller status word, e.g. ``ready data-valid beam-ok`` (``none``)."""
     names = [("ready", st.ready), ("busy", st.busy), ("data-valid", st.data_valid), ("error", st.error),
              ("beam-ok", st.beam_ok)]
-    flags = " ".join(n for n, on in names if on) or "none"
-    line = f"status 0x{st.raw_status:04x} [{flags}] sequence {st.sequence}"
+    return " ".join(n for n, on in names if on) or "none"
+
+
+def status_flags(st: ControllerStatus) -> str:
+    """The status word, its set flags and the sequence, e.g. ``status 0x0015 [ready data-valid beam-ok] sequence 4``."""
+    line = f"status 0x{st.raw_status:04x} [{set_flags(st)}] sequence {st.sequence}"
     if st.error or st.error_code:
         line += f" error {st.error_code}: {st.error_text or 'unknown error'}"
     return line

@@ -12,6 +12,7 @@ from typing import Any
 from drivers.environment.xymd02 import XYMD02
 from drivers.errors import CompletionTimeout, DeviceError, DriverError, TransportError, TransportTimeout
 from drivers.interferometer import InterferometerController
+from drivers.interferometer.codec import decode_value
 from drivers.keyence_lkg import KeyenceLKG
 from drivers.keyence_lkg.driver import check_output
 from drivers.me_ild1420 import ILD1420
@@ -122,6 +123,13 @@ class Rig:
             return reading
         env = self.environment.read_once()
         return replace(reading, air_temp_c=env.temp_c, humidity_pct=env.humidity_pct)
+
+    def read_angle_deg(self) -> float:
+        """The rotary angle captured with the last trigger (deg, relative to the datum; register
+        ``angle_deg``, docs/modbus-map.md)."""
+        ctl: Any = self.controller
+        reg = ctl.map["angle_deg"]
+        return decode_value(ctl.read_registers(reg.address, reg.count), reg.type, ctl.word_order)
 
     def instruments(self) -> dict[str, dict[str, Any]]:
         """run.json ``instruments``: protocol, endpoint, identity of each device (the sensor's output

@@ -41,7 +41,7 @@ from pymodbus import FramerType, ModbusException
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.exceptions import ConnectionException, ModbusIOException
 
-from .errors import ChecksumError, ConnectionLost, DeviceError, ProtocolError, TransportTimeout
+from .errors import ChecksumError, ConnectionLost, DeviceError, ProtocolError, TransportTimeout, with_context
 
 #: Exception codes of the Modbus application protocol v1.1b3, section 7.
 MODBUS_EXCEPTION_TEXT = {
@@ -265,8 +265,9 @@ class ModbusLink:
             raise TransportTimeout(f"{self.name} {self.url}: {what}: no response")
         if rr.isError():
             code = int(getattr(rr, "exception_code", 0))
-            raise DeviceError(code, f"Modbus exception {code}: {MODBUS_EXCEPTION_TEXT.get(code, 'unknown code')}",
-                              command=what)
+            raise with_context(DeviceError(code, f"Modbus exception {code}: "
+                                           f"{MODBUS_EXCEPTION_TEXT.get(code, 'unknown code')}", command=what),
+                               f"{self.name} {self.url}")
         return rr
 
     def _registers(self, what: str, rr: Any, count: int) -> list[int]:

@@ -51,7 +51,8 @@ def plan_info(setup: StraightnessSetup | PositioningSetup, points_before: int = 
     if isinstance(setup, StraightnessSetup):
         return RunPlanInfo("straightness", len(setup.steps()), setup.stations, "mm", setup.return_pass,
                            setup.warmup.enabled, setup.block_length_mm, points_before)
-    return RunPlanInfo("positioning", len(setup.measured_stops()), 0, setup.unit, points_before=points_before)
+    return RunPlanInfo("positioning", len(setup.measured_stops()), 0, setup.unit, points_before=points_before,
+                       datum=setup.datum)
 
 
 class GuidewayApp(App[None]):
@@ -154,13 +155,15 @@ class GuidewayApp(App[None]):
             else:
                 setup = positioning_setup_from_dict(run.meta.get("setup_source") or {}, f"{run_dir}/run.json")
         except Exception as exc:  # noqa: BLE001 - shown, not raised: the browser stays usable
-            self.notify(f"cannot resume {run_dir}: {exc}", severity="error")
+            self.notify(f"cannot resume {run_dir}: {exc}", severity="error", markup=False)
             return
         simulated = "simulation" in run.meta or self.simulate
         session = RunSession(self.post_message, plan_info(setup, len(run.points)), None, run_dir,
                              simulate=self.sim_options if simulated else None, resume=True,
                              live_interval_s=self.live_interval_s)
         rows = run.points.to_dict("records")
+        session.view.rows = list(rows)
+        session.view.skipped = len(run.meta.get("skipped") or [])
         if run.kind == "straightness":  # the profile so far, as the live display computes it
             live = LiveProfile(setup.geometry)
             for row in rows:
@@ -220,7 +223,7 @@ class GuidewayApp(App[None]):
                     f"resumed (c on the Runs screen)")
         if outcome is None and not (message.run_dir / "run.json").exists():
             self._switch("setup")
-            self.notify(note, severity="error", timeout=10)
+            self.notify(note, severity="error", timeout=10, markup=False)
             return
         self.open_results(message.run_dir, note)
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import collections
 import contextlib
 import io
+import math
 import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -72,6 +73,19 @@ class RunPlanInfo:
     warmup: bool = False
     step_mm: float = 0.0  # straightness: block length (x of station k = k * step_mm)
     points_before: int = 0  # resumed run: points already on disk
+    datum: float = 0.0  # positioning: axis position (mm or deg) where the interferometer was zeroed
+
+    @property
+    def rotary(self) -> bool:
+        return self.kind == "positioning" and self.unit == "deg"
+
+    def axis_reading(self, reading: LiveReading | None) -> float:
+        """Positioning: where the axis is by a live reading, as the plan records a capture (``reading_mm`` /
+        ``reading_deg``: the datum plus the interferometer position, or plus the rotary angle); NaN without one."""
+        ifm = reading.interferometer if reading is not None else None
+        if ifm is None:
+            return math.nan
+        return self.datum + (reading.angle_deg if self.rotary else ifm.position_mm)
 
 
 @dataclass
@@ -81,20 +95,26 @@ class SessionView:
     question: Instruct | Prompt | None = None
     ticket: int = 0
     reading: LiveReading | None = None
-    sensor_history: collections.deque[float] = field(default_factory=lambda: collections.deque(maxlen=120))
+    # the live value over time: the sensor (straightness) or the axis reading (positioning)
+    live_history: collections.deque[float] = field(default_factory=lambda: collections.deque(maxlen=120))
     warmup: dict[str, Any] = field(default_factory=dict)
     heights: dict[tuple[int, int], float] = field(default_factory=dict)  # (pass, station) -> um
     # (run, direction, target index) -> (target, live deviation: um environment-compensated, or arcsec)
     deviations: dict[tuple[int, int, int], tuple[float, float]] = field(default_factory=dict)
     deviation_label: str = ""  # what the live deviations are (acquisition.live.LiveDeviation.label)
-    points: int = 0
-    last_point: dict[str, Any] | None = None
+    points: int = 0  # captured in this session (a resumed run: RunPlanInfo.points_before more on disk)
+    rows: list[dict[str, Any]] = field(default_factory=list)  # the points on disk, in order
+    skipped: int = 0  # steps skipped without a point (run.json ``skipped``), resumed ones included
     state: str = "connecting"  # connecting, running, paused, finished, failed
     log: collections.deque[str] = field(default_factory=lambda: collections.deque(maxlen=LOG_LINES))
     faults: list[str] = field(default_factory=list)
     outcome: RunOutcome | None = None
     error: str = ""
     started: bool = False
+
+    @property
+    def last_point(self) -> dict[str, Any] | None:
+        return self.rows[-1] if self.rows else None
 
 
 def add_deviation(view: SessionView, row: dict[str, Any], deviation: float, label: str) -> None:
@@ -160,7 +180,7 @@ class RunSession:
     def _attach(self, engine: RunEngine) -> Iterator[None]:
         self.engine = engine
         self.monitor = LiveMonitor(engine.rig, lambda r: self.post(LiveReadingArrived(r)),
-                                   interval_s=self.live_interval_s)
+                                   interval_s=self.live_interval_s, angle=self.info.rotary)
         with self.monitor:
             yield
 
@@ -198,9 +218,10 @@ class RunSession:
     def apply(self, message: Any) -> None:
         v = self.view
         if isinstance(message, LiveReadingArrived):
-            v.reading = message.reading
-            if message.reading.has_sensor and message.reading.sensor_mean_mm == message.reading.sensor_mean_mm:
-                v.sensor_history.append(message.reading.sensor_mean_mm)
+            v.reading = r = message.reading
+            live = r.sensor_mean_mm if self.info.kind == "straightness" else self.info.axis_reading(r)
+            if math.isfinite(live):
+                v.live_history.append(live)
         elif isinstance(message, OperatorQuestion):
             v.question, v.ticket = message.question, message.ticket
         elif isinstance(message, LogLine):
@@ -227,12 +248,14 @@ class RunSession:
         elif name == "progress" and doc.get("key") == "warmup":
             v.warmup = dict(doc["data"])
         elif name == "event":
-            row = doc["data"]
             v.points += 1
-            v.last_point = row
+            v.rows.append(doc["data"])
         elif name == "retract":
             v.points -= 1
             m = doc["match"]
+            v.rows = [r for r in v.rows if any(r.get(k) != value for k, value in m.items())]
             v.heights.pop((int(m.get("pass", 0)), int(m["station"])), None)
         elif name == "annotate" and doc.get("key") == "faults":
             v.faults = list(doc["value"])
+        elif name == "annotate" and doc.get("key") == "skipped":
+            v.skipped = len(doc["value"])

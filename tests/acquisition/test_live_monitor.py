@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import threading
 from pathlib import Path
 
@@ -63,3 +64,33 @@ def test_operator_request_is_answered_once_and_ends_a_wait() -> None:
         sim.close()
     assert outcome.exit_status == "success"
     assert replies[0] is False and replies[1] < 30.0 and replies[2] is True and replies[3] is False
+
+
+def test_rotary_set_up_reads_the_angle_captured_with_each_trigger() -> None:
+    from acquisition.positioning_setup import positioning_setup_from_dict
+    from acquisition.rig import open_controller_rig
+    from acquisition.simulation import start_simulated_machine
+
+    setup = positioning_setup_from_dict({"axis": {"type": "rotary", "start_deg": 0.0, "end_deg": 360.0, "runs": 1,
+                                                  "datum_deg": 0.0}})
+    sim = start_simulated_machine(setup, seed=2, noise=False)
+    sim.axis.set_datum()
+    sim.cycle_start()  # the program runs to its first measured stop (0 deg) and waits there for the acknowledge
+    wait_for(lambda: sim.axis.in_position, what="the first target")
+    sim.axis.acknowledge(sim.axis.count)  # the PLC moves on to the second target and waits again
+    target = sim.axis.stops[sim.axis.index].position
+    rig = open_controller_rig(sim.controller_url)
+    readings: list[LiveReading] = []
+    try:
+        with LiveMonitor(rig, readings.append, interval_s=0.02, interferometer_interval_s=0.0, angle=True):
+            wait_for(lambda: len(readings) >= 3, what="three live readings")
+    finally:
+        rig.close()
+        sim.close()
+    # the angle the simulated controller latched at each live trigger: the axis at rest at the target, from the
+    # datum (noise off); the simulated errors put it a few arcsec off the commanded target
+    truth = sim.axis.captured[-1][1] - setup.datum
+    assert target != 0.0 and abs(truth - target) < 30 / 3600
+    assert all(r.problem == "" and r.angle_deg == truth for r in readings)
+    # a linear set-up's monitor does not read the angle
+    assert math.isnan(LiveReading(0.0).angle_deg)

@@ -58,6 +58,9 @@ def test_exception_reply_is_a_device_error_with_the_modbus_meaning(transport: st
             ctl.trigger_and_read()  # request 2, the trigger write, answers exception 6
         assert info.value.code == 6 and info.value.text == "Modbus exception 6: server device busy"
         assert info.value.command == "command trigger"
+        # the message says which device answered so (a run's fault dialog and run.json show only the message)
+        assert str(info.value) == (f"controller {ctl.endpoint}: device reported error 6 to 'command trigger': "
+                                   "Modbus exception 6: server device busy")
         assert ctl.trigger_and_read().ok
 
 

@@ -46,7 +46,7 @@ def straightness_session(stage: str) -> RunSession:
     v.started, v.state = True, "running"
     v.reading = LiveReading(0.0, sensor_mm=0.01234, sensor_status="ok", sensor_mean_mm=0.01234, sensor_count=1,
                             interferometer=ifm())
-    v.sensor_history.extend(0.0123 + 0.0002 * ((i * 7) % 5) / 5 for i in range(60))
+    v.live_history.extend(0.0123 + 0.0002 * ((i * 7) % 5) / 5 for i in range(60))
     v.log.extend(["simulated sensor     : keyence-lkg on SENSOR (pty)", "simulated controller : modbus-tcp://HOST",
                   "warm-up: waiting for drift below 0.5 um (interferometer) and 0.5 um (sensor) over 2 readings"])
     if stage == "warmup":
@@ -57,11 +57,33 @@ def straightness_session(stage: str) -> RunSession:
     heights = {0: 0.0, 1: -6.214, 2: -11.903}
     v.heights.update({(0, k): h for k, h in heights.items()})
     v.points = 3
-    v.last_point = {"station": 2, "pass": 0, "x_mm": 200.0, "stry_um": -2.745, "sensor_mm": 0.01207}
+    v.rows.append({"station": 2, "pass": 0, "x_mm": 200.0, "stry_um": -2.745, "sensor_mm": 0.01207})
     v.question = Instruct("place_block", "Move the block to station 3 (x = 300 mm), against the side face; "
                           "capture when it is still.", {"station": 3, "pass": 0},
                           choices=("capture", "redo", "skip", "pause", "abort"), key="station")
     v.log.extend(["station   2  x =    200.0 mm  stry =   -2.745 um  sensor = +0.01207 mm"])
+    return s
+
+
+ROTARY = {"kind": "positioning", "machine": "test bench", "operator": "pilot",
+          "axis": {"name": "C", "type": "rotary", "start_deg": 0.0, "end_deg": 360.0, "runs": 2},
+          "trigger": {"mode": "in-position", "dwell_s": 0.0}}
+
+
+def rotary_session() -> RunSession:
+    """A rotary run at target 3 (90 deg): the controller reports the angle from the datum, not a position."""
+    setup = setup_from_dict(ROTARY)
+    s = RunSession(lambda _m: None, plan_info(setup), ROTARY, RUNS / "new", simulate=None)
+    v = s.view
+    v.started, v.state = True, "running"
+    v.reading = LiveReading(0.0, interferometer=ifm(position_mm=0.0, stry_um=0.0), angle_deg=90.000712)
+    for i, (t, d) in enumerate(zip(setup.targets[:3], (0.0, 3.1, 2.6), strict=True), start=1):
+        v.deviations[(1, 1, i)] = (t, d)
+    v.deviation_label = "angular, not air-compensated"
+    v.points = 3
+    v.rows.append({"run": 1, "direction": 1, "target_index": 3, "target_deg": 90.0, "reading_deg": 90.000722})
+    v.question = Instruct("cycle_start", "Start the part program of this cycle (guideway gcode) with Cycle Start.",
+                          {}, choices=("started", "abort"), key="start")
     return s
 
 
@@ -77,7 +99,7 @@ def positioning_session() -> RunSession:
         v.deviations[(1, -1, i)] = (t, d - 2.8)
     v.deviation_label = "environment-compensated"
     v.points = 10
-    v.last_point = {"run": 1, "direction": -1, "target_index": 1, "target_mm": 0.0, "reading_mm": -0.0028}
+    v.rows.append({"run": 1, "direction": -1, "target_index": 1, "target_mm": 0.0, "reading_mm": -0.0028})
     v.question = Instruct("cycle_start", "Start the part program of this cycle (guideway gcode) with Cycle Start.",
                           {}, choices=("started", "abort"), key="start")
     return s

@@ -100,3 +100,8 @@ def process_json(run_dir: Path) -> dict[str, Any]:
 
 def widget_text(app: Any, selector: str) -> str:
     return str(app.screen.query_one(selector).render())
+
+
+def screen_lines(app: Any) -> list[str]:
+    """The terminal lines the current screen shows (its compositor's render, as the terminal gets it)."""
+    return [strip.text for strip in app.screen._compositor.render_strips()]

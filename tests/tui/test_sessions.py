@@ -143,7 +143,9 @@ def test_device_fault_shows_the_dialog_and_retry_loses_no_point(tmp_path: Path, 
             await wait_for_app(pilot, lambda: screen_name(app) == "ResultsScreen", what="results")
 
     asyncio.run(session())
-    assert len(seen) == 1 and seen[0].startswith("Device fault: Device fault:")
+    # the dialog says what failed under its title (the plan's "Device fault: " not repeated)
+    device = "displacement sensor (keyence-lkg on " if faults.startswith("sensor") else "controller modbus-tcp://"
+    assert len(seen) == 1 and seen[0].startswith(f"Device fault: {device}"), seen
     meta = json.loads((out / "run.json").read_text())
     assert meta["status"] == "complete" and len(meta["faults"]) == 1
     rows = (out / "points.csv").read_text().splitlines()[1:]
@@ -191,3 +193,99 @@ def test_quit_mid_run_then_resume_from_the_runs_screen_completes_the_run(tmp_pat
     meta = json.loads((out / "run.json").read_text())
     assert meta["status"] == "complete" and meta["points"] == 8  # 4 forward + 4 return
     assert_same_points(out, auto_run(source, tmp_path / "auto"))
+
+
+ROTARY_MANUAL = {
+    "kind": "positioning", "machine": "test bench", "operator": "pilot",
+    # datum 10 deg (the start): the axis angle is the datum plus the angle the controller reports from it
+    "axis": {"name": "C", "type": "rotary", "start_deg": 10.0, "end_deg": 370.0, "runs": 1},
+    "trigger": {"mode": "manual", "dwell_s": 0.0},
+}
+
+
+def test_rotary_capture_screen_shows_the_live_axis_angle(tmp_path: Path) -> None:
+    out = tmp_path / "tui"
+    shown: list[tuple[str, float]] = []  # (Digits text once it showed the axis at rest, the angle recorded there)
+
+    async def session() -> None:
+        app = app_for(ROTARY_MANUAL, out)
+        async with app.run_test(size=(80, 24)) as pilot:
+            await press_start(pilot, app)
+            await wait_for_app(pilot, lambda: screen_name(app) == "ConnectScreen", what="connect screen")
+            await answer_all(pilot, app, stop_after=1)  # the datum
+            s = app.session
+            for _ in range(3):  # manual trigger: the axis rests at the target captured last (M00) until Space
+                await wait_for_app(pilot, lambda: screen_name(app) == "CaptureScreen" and s.view.question is not None,
+                                   what="the next target")
+                q = s.view.question
+                if s.view.last_point is not None:
+                    expected = f"{s.view.last_point['reading_deg']:+.5f}"
+                    await wait_for_app(pilot, lambda e=expected: str(app.screen.query_one("#live").value) == e,
+                                       what=f"the live angle {expected}")
+                    shown.append((str(app.screen.query_one("#live").value), s.view.last_point["reading_deg"]))
+                    assert widget_text(app, "#live-status").startswith("axis angle deg (datum 10 + angle)")
+                await pilot.press("space")
+                await wait_for_app(pilot, lambda q=q: s.view.question is not q, what="the capture")
+            await pilot.press("q")
+            await wait_for_app(pilot, lambda: screen_name(app) == "ConfirmScreen", what="quit question")
+            await pilot.press("y")
+            await wait_for_app(pilot, lambda: not app.session.active, what="the run to end")
+
+    asyncio.run(session())
+    assert len(shown) == 2
+    # the points on disk: the angles the screen showed are the plan's recorded readings (axis frame, near the targets)
+    rows = (out / "points.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    recorded = [float(r.split(",")[header.index("reading_deg")]) for r in rows[1:]]
+    targets = [float(r.split(",")[header.index("target_deg")]) for r in rows[1:]]
+    assert [v for _, v in shown] == recorded[:2]
+    assert all(abs(r - t) < 20 / 3600 for r, t in zip(recorded, targets, strict=True)) and targets[1] > 10.0
+
+
+def test_app_closed_mid_run_shuts_down_cleanly_and_leaves_the_run_resumable(tmp_path: Path) -> None:
+    # ctrl+q (Textual's own quit) or a closed terminal: no quit question; the live readings still arrive
+    # while the screens are taken down
+    out = tmp_path / "tui"
+    source = {**STRAIGHTNESS, "warmup": {"enabled": False}}
+
+    async def session() -> None:
+        app = app_for(source, out, live_interval_s=0.01)
+        async with app.run_test(size=(80, 24)) as pilot:
+            await press_start(pilot, app)
+            await wait_for_app(pilot, lambda: app.session is not None, what="the session")
+            await answer_all(pilot, app, stop_after=2)  # datum, station 1
+            s = app.session
+            await wait_for_app(pilot, lambda: s.view.points == 2 and s.view.question is not None, what="two points")
+            seen = s.view.reading
+            await wait_for_app(pilot, lambda: s.view.reading is not seen, what="live readings")
+            app.exit()
+
+    asyncio.run(session())  # (run_test re-raises an exception of the app)
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["status"] == "aborted" and meta["points"] == 2
+
+
+def test_o_overrides_the_warm_up_and_the_run_records_it(tmp_path: Path) -> None:
+    out = tmp_path / "tui"
+    # a window of 1000 readings: the warm-up cannot become stable by itself within the test
+    source = {**STRAIGHTNESS, "block": {**STRAIGHTNESS["block"], "stations": 2, "return_pass": False},
+              "warmup": {"enabled": True, "window": 1000, "interval_s": 0.05}}
+
+    async def session() -> None:
+        app = app_for(source, out)
+        async with app.run_test(size=(80, 24)) as pilot:
+            await press_start(pilot, app)
+            await wait_for_app(pilot, lambda: screen_name(app) == "ConnectScreen", what="connect screen")
+            s = app.session
+            await wait_for_app(pilot, lambda: s.view.question is not None, what="the datum instruction")
+            await pilot.press("space")  # the block is at the datum; the warm-up starts
+            await wait_for_app(pilot, lambda: s.view.warmup.get("state") == "drifting", what="the warm-up")
+            assert "DRIFTING" in widget_text(app, "#state")
+            await pilot.press("o")
+            await wait_for_app(pilot, lambda: s.view.warmup.get("state") == "overridden", what="the override")
+            await answer_all(pilot, app)
+            await wait_for_app(pilot, lambda: screen_name(app) == "ResultsScreen", what="results")
+
+    asyncio.run(session())
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["status"] == "complete" and meta["warmup"]["overridden"] and not meta["warmup"]["stable"]

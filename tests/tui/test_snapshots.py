@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.tui.frozen import FAULT, JUMP, ROOT, RUNS, positioning_session, straightness_session
+from tests.tui.frozen import FAULT, JUMP, ROOT, RUNS, positioning_session, rotary_session, straightness_session
 from tests.tui.sessions import POSITIONING, STRAIGHTNESS
 from tests.waiting import wait_for_app
 from tui.app import GuidewayApp
@@ -88,6 +88,11 @@ def test_capture_straightness(snap_compare, size) -> None:  # noqa: ANN001
 @pytest.mark.parametrize("size", SIZES)
 def test_capture_positioning(snap_compare, size) -> None:  # noqa: ANN001
     assert snap_compare(app(), terminal_size=size, run_before=show(lambda _a: CaptureScreen(positioning_session())))
+
+
+@pytest.mark.parametrize("size", SIZES)
+def test_capture_rotary(snap_compare, size) -> None:  # noqa: ANN001
+    assert snap_compare(app(), terminal_size=size, run_before=show(lambda _a: CaptureScreen(rotary_session())))
 
 
 @pytest.mark.parametrize("size", SIZES)

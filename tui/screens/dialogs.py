@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Vertical
+from textual.markup import escape
 from textual.screen import ModalScreen, Screen
 from textual.widgets import Static
 
@@ -42,9 +43,10 @@ class QuestionScreen(ModalScreen[str]):
         title = TITLES.get(p.key, "Question")
         with Vertical(id="dialog", classes="fault" if p.fault and p.key == "fault" else ""):
             yield Static(title, id="dialog-title")
-            yield Static(p.text, id="dialog-text")
+            # ("Device fault: ..." under the title "Device fault")
+            yield Static(escape(p.text.removeprefix(f"{title}: ")), id="dialog-text")
             default = p.default or p.choices[0]
-            keys = "   ".join(f"[b]{k}[/b] {c}" + (" (Enter)" if c == default else "")
+            keys = "   ".join(f"[b]{k}[/b] {escape(c)}" + (" (Enter)" if c == default else "")
                              for k, c in zip(self.keys, p.choices, strict=True))
             yield Static(keys, id="dialog-keys")
 
@@ -70,8 +72,8 @@ class ConfirmScreen(ModalScreen[bool]):
 
     def compose(self) -> ComposeResult:
         with Vertical(id="dialog"):
-            yield Static(self.title_text, id="dialog-title")
-            yield Static(self.text, id="dialog-text")
+            yield Static(escape(self.title_text), id="dialog-title")
+            yield Static(escape(self.text), id="dialog-text")
             yield Static("[b]y[/b] yes   [b]n[/b] no", id="dialog-keys")
 
     def action_answer(self, yes: bool) -> None:

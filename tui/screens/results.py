@@ -11,6 +11,7 @@ from textual import work
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import VerticalScroll
+from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import Footer, Header, Static
 
@@ -98,15 +99,15 @@ class ResultsScreen(Screen):
         yield Header()
         with VerticalScroll(id="results-body"):
             yield Static(id="run-title")
-            yield Plot(id="plot", classes="results-plot")
+            yield Plot(id="plot")
             yield Static("evaluating...", id="summary")
             yield Static(id="options")
             yield Static(id="written")
         yield Footer()
 
     def on_mount(self) -> None:
-        self.query_one("#run-title", Static).update(f"{self.run_dir}" + (f"\n[yellow]{self.note}[/yellow]"
-                                                                          if self.note else ""))
+        self.query_one("#run-title", Static).update(escape(str(self.run_dir)) + (
+            f"\n[yellow]{escape(self.note)}[/yellow]" if self.note else ""))
         self.evaluate()
 
     def options(self) -> dict[str, Any]:
@@ -126,7 +127,7 @@ class ResultsScreen(Screen):
         self.app.call_from_thread(self.show, run, evaluation)
 
     def show_problem(self, text: str) -> None:
-        self.query_one("#summary", Static).update(f"[red]not evaluated: {text}[/red]")
+        self.query_one("#summary", Static).update(f"[red]not evaluated: {escape(text)}[/red]")
 
     def show(self, run: Any, evaluation: Any) -> None:
         self.kind = run.kind
@@ -134,10 +135,11 @@ class ResultsScreen(Screen):
         m = run.meta
         status = m.get("status", "")
         colour = "green" if status == "complete" else "yellow"
-        title = (f"[b]{run.kind}[/b] · {m.get('machine') or 'machine'} · axis {m.get('axis') or '-'} · "
-                 f"[{colour}]{status}[/{colour}] · {len(run.points)} points · {self.run_dir}")
+        title = (f"[b]{escape(run.kind)}[/b] · {escape(m.get('machine') or 'machine')} · axis "
+                 f"{escape(m.get('axis') or '-')} · [{colour}]{escape(status)}[/{colour}] · {len(run.points)} points · "
+                 f"{escape(str(self.run_dir))}")
         if self.note:
-            title += f"\n[yellow]{self.note}[/yellow]"
+            title += f"\n[yellow]{escape(self.note)}[/yellow]"
         self.query_one("#run-title", Static).update(title)
         d = evaluation.to_dict()
         plot = self.query_one("#plot", Plot)
@@ -158,7 +160,9 @@ class ResultsScreen(Screen):
             text = (f"[b]k[/b] k = {K_CHOICES[self.k_index]:g}   [b]e[/b] {self.edition}   [b]c[/b] model {self.model}"
                     f"   [b]1-4[/b] {'/'.join(FORMATS)}   [b]h[/b] report")
         self.query_one("#options", Static).update(text)
-        self.query_one("#written", Static).update("\n".join(f"written: {p}" for p in self.written[-4:]))
+        self.query_one("#written", Static).update("\n".join(f"written: {escape(p)}" for p in self.written[-4:]))
+        if self.written:
+            self.query_one("#results-body", VerticalScroll).scroll_end(animate=False)
 
     # -- re-processing ----------------------------------------------------------------------------
     def action_method(self) -> None:
@@ -205,9 +209,10 @@ class ResultsScreen(Screen):
         try:
             path = write()
         except EXPECTED_ERRORS as exc:
-            self.app.call_from_thread(self.notify, str(exc), severity="error")
+            self.app.call_from_thread(self.notify, str(exc), severity="error", markup=False)
             return
-        self.written.append(str(path))
+        path = Path(path)  # shown relative to the run directory (the title names it) where it is inside it
+        self.written.append(str(path.relative_to(self.run_dir) if path.is_relative_to(self.run_dir) else path))
         self.app.call_from_thread(self.show_options)
 
 

@@ -13,6 +13,7 @@ from typing import Any
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal
+from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import Digits, Footer, Header, ProgressBar, Sparkline, Static
 
@@ -20,7 +21,7 @@ from acquisition.messages import Instruct
 
 from ..session import RunSession
 from ..widgets.plot import Plot, PlotData, Series
-from ..widgets.readout import bar, interferometer_lines, readout_text, sensor_line
+from ..widgets.readout import bar, controller_state, readout_text, sensor_line
 
 STATE_TEXT = {
     "connecting": "[b yellow]CONNECTING[/b yellow] — opening the devices",
@@ -83,11 +84,11 @@ class RunScreen(Screen):
             return "[dim]working...[/dim]" if self.session.view.state != "paused" else "[yellow]paused[/yellow]"
         keys = {"capture": "Space", "done": "Space", "started": "Space", "redo": "r", "skip": "s", "pause": "p",
                 "abort": "a"}
-        choices = "   ".join(f"[b]{keys.get(c, c)}[/b] {c}" for c in q.choices)
-        return f"{q.text}\n{choices}"
+        choices = "   ".join(f"[b]{escape(keys.get(c, c))}[/b] {escape(c)}" for c in q.choices)
+        return f"{escape(q.text)}\n{choices}"
 
     def log_text(self, lines: int) -> str:
-        return "\n".join(list(self.session.view.log)[-lines:])
+        return "\n".join(escape(line) for line in list(self.session.view.log)[-lines:])
 
     def refresh_view(self) -> None:  # pragma: no cover - overridden
         pass
@@ -159,7 +160,7 @@ class ConnectScreen(RunScreen):
                 f"  sensor         {bar(w.get('drift_sensor_um', nan), w.get('max_drift_sensor_um', 0.0))}")
         else:
             self.query_one("#drift", Static).update("[dim]no warm-up in this set-up[/dim]")
-        self.query_one("#history", Sparkline).data = list(v.sensor_history)
+        self.query_one("#history", Sparkline).data = list(v.live_history)
         self.query_one("#log", Static).update(self.log_text(3))
 
 
@@ -195,11 +196,11 @@ class CaptureScreen(RunScreen):
             if "station" in p:
                 where = "return pass" if p.get("pass") else "forward pass"
                 return f"Station [b]{p['station']}[/b] of {info.stations - 1} · {where}"
-            return f"{v.points} of {info.total_steps} points"
+            return f"{info.points_before + v.points} of {info.total_steps} points"
         if "target_index" in p:
             arrow = "up (+)" if p.get("direction", 1) > 0 else "down (-)"
             return f"Target [b]{p['target_index']}[/b] · run {p.get('run')} · {arrow}"
-        return f"{v.points} of {info.total_steps} points"
+        return f"{info.points_before + v.points} of {info.total_steps} points"
 
     def last_text(self) -> str:
         v = self.session.view
@@ -234,23 +235,26 @@ class CaptureScreen(RunScreen):
         unit = "arcsec" if info.unit == "deg" else "um"
         what = f", {short_label(v.deviation_label)}" if v.deviation_label else ""
         return PlotData([Series(up, "green", "up"), Series(down, "yellow", "down")],
-                        x_label=f"target ({info.unit}) · dev. ({unit}{what}) up green, down yellow", y_label=unit)
+                        x_label=f"target ({info.unit}) · {unit}{what} · ↑ green ↓ yellow", y_label=unit)
 
     def refresh_view(self) -> None:
         v, info = self.session.view, self.session.info
         self.query_one("#step", Static).update(self.step_text())
-        self.query_one("#progress", ProgressBar).update(progress=v.points + info.points_before)
+        self.query_one("#progress", ProgressBar).update(progress=info.points_before + v.points + v.skipped)
         self.query_one("#instruction", Static).update(self.instruction_text())
         r = v.reading
         if info.kind == "straightness":
             value = f"{r.sensor_mm:+.4f}" if r is not None and math.isfinite(r.sensor_mm) else "-.----"
             status = sensor_line(r).replace("sensor: ", "sensor mm\n", 1)
-        else:
-            ifm = r.interferometer if r is not None else None
-            value = f"{ifm.position_mm:+.4f}" if ifm is not None else "-.----"
-            status = "interferometer position mm\n" + interferometer_lines(r)[0].replace("interferometer: ", "")
+        else:  # where the axis is, in the frame of the targets (the reading the plan records)
+            axis = info.axis_reading(r)
+            digits = 5 if info.rotary else 4  # 0.04 arcsec, 0.1 um
+            value = f"{axis:+.{digits}f}" if math.isfinite(axis) else "-." + "-" * digits
+            what = "angle" if info.rotary else "interferometer"
+            status = (f"axis {'angle' if info.rotary else 'position'} {info.unit} (datum {info.datum:g} + {what})\n"
+                      + controller_state(r))
         self.query_one("#live", Digits).update(value)
-        problem = f"\n[red]{r.problem}[/red]" if r is not None and r.problem else ""
+        problem = f"\n[red]{escape(r.problem)}[/red]" if r is not None and r.problem else ""
         self.query_one("#live-status", Static).update(status + problem)
         self.query_one("#last", Static).update(self.last_text())
         self.query_one("#plot", Plot).show(self.plot_data())

@@ -1,15 +1,27 @@
-"""Runs screen: the saved runs of the runs folder; open one into Results, or resume an unfinished one."""
+"""Runs screen: the saved runs of the runs folder; open one into Results, or resume an unfinished one.
+
+Each run takes two lines (its name over its creation time, its kind over its axis), so that every
+column fits an 80-column terminal; the machine column takes the width that is left and wraps.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from rich.text import Text
 from textual.app import ComposeResult
 from textual.binding import Binding
+from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Static
 
 from acquisition.runs import RunSummary, list_runs  # json only: the browser paints at once
+
+NAME_WIDTH = 32
+KIND_WIDTH = 12
+STATUS_WIDTH = 10
+POINTS_WIDTH = 6
+MACHINE_MIN_WIDTH = 10
 
 
 class RunsScreen(Screen):
@@ -30,24 +42,36 @@ class RunsScreen(Screen):
         yield Footer()
 
     def on_mount(self) -> None:
-        table = self.query_one(DataTable)
-        table.add_columns("run", "kind", "created (UTC)", "status", "points", "machine", "axis")
         self.action_reload()
 
     def on_screen_resume(self) -> None:
         self.action_reload()
 
+    def on_resize(self) -> None:
+        self.action_reload()
+
     def action_reload(self) -> None:
         self.runs = list_runs(self.runs_dir)
         table = self.query_one(DataTable)
-        table.clear()
+        table.clear(columns=True)
+        names = [r.path.name for r in self.runs]
+        name_w = min(max([19, *map(len, names)]), NAME_WIDTH)  # 19: a creation time
+        fixed = name_w + KIND_WIDTH + STATUS_WIDTH + POINTS_WIDTH
+        # the rest of the screen (less a scroll bar and each column's padding of one cell either side)
+        machine_w = max(MACHINE_MIN_WIDTH, self.app.size.width - 2 - 2 * 5 - fixed)
+        for label, width in (("run · created (UTC)", name_w), ("kind · axis", KIND_WIDTH),
+                             ("status", STATUS_WIDTH), ("points", POINTS_WIDTH), ("machine", machine_w)):
+            table.add_column(label, width=width)
         for r in self.runs:
-            status = r.problem or r.status
-            table.add_row(r.path.name, r.kind or "?", r.created.replace("T", " ").removesuffix("Z"), status,
-                          str(r.points), r.machine, r.axis)
+            # as they are (a str cell would be read as markup); two lines each, cut to the column
+            name = Text(f"{r.path.name[:name_w]}\n{r.created.replace('T', ' ').removesuffix('Z')}")
+            kind = Text(f"{r.kind or '?'}\n{r.axis or '-'}")
+            status = Text(r.problem or r.status, overflow="ellipsis")
+            table.add_row(name, kind, status, Text(str(r.points), justify="right"), Text(r.machine), height=2)
         n = len(self.runs)
         self.query_one("#runs-title", Static).update(
-            f"{n} run(s) in {self.runs_dir}" if n else f"no runs in {self.runs_dir} yet (F2: set up a run)")
+            f"{n} run(s) in {escape(str(self.runs_dir))} · Enter opens the results" if n
+            else f"no runs in {escape(str(self.runs_dir))} yet (F2: set up a run)")
 
     def selected(self) -> RunSummary | None:
         table = self.query_one(DataTable)
@@ -69,6 +93,7 @@ class RunsScreen(Screen):
         if r is None:
             return
         if not r.resumable:
-            self.notify(f"{r.path.name} is {r.problem or r.status}; nothing to resume", severity="warning")
+            self.notify(f"{r.path.name} is {r.problem or r.status}; nothing to resume", severity="warning",
+                        markup=False)
             return
         self.app.resume_run(r.path)  # type: ignore[attr-defined]

@@ -18,6 +18,7 @@ from textual import on, work
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical, VerticalScroll
+from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import Checkbox, Footer, Header, Input, RadioButton, RadioSet, Select, Static
 
@@ -100,7 +101,8 @@ def positioning_fields(unit: str) -> list[tuple[str, list[Field]]]:
                  Field("", "operator", "operator", "str")]),
         ("Targets and runs", [
             Field("axis", f"start_{u}", f"start ({u})"), Field("axis", f"end_{u}", f"end ({u})"),
-            Field("axis", f"targets_{u}", f"targets ({u}, optional)", "list", placeholder="generated per ISO 230-2"),
+            Field("axis", f"targets_{u}", f"targets ({u})", "list",
+                  placeholder="optional: generated per ISO 230-2"),
             Field("axis", "runs", "runs per direction", "int"),
             Field("axis", "cycle", "cycle", "choice", ("linear", "step")),
             Field("axis", f"overrun_{u}", f"overrun ({u})"),
@@ -344,7 +346,7 @@ class SetupScreen(Screen):
         if problem is None:
             status.update("[green]set-up valid[/green]: F5 starts the run")
         else:
-            status.update(f"[red]set-up not valid:[/red] {problem}")
+            status.update(f"[red]set-up not valid:[/red] {escape(problem)}")
         return problem is None
 
     def _show(self, f: Field, text: str) -> None:
@@ -352,7 +354,7 @@ class SetupScreen(Screen):
             err = self.query_one(f"#{f.id}-error", Static)
         except Exception:
             return
-        err.update(f"[red]{text}[/red]")
+        err.update(f"[red]{escape(text)}[/red]")
         err.display = True
 
     @on(Input.Changed)
@@ -392,9 +394,9 @@ class SetupScreen(Screen):
         try:
             self.load(read_toml(path))
         except SetupError as exc:
-            self.query_one("#setup-status", Static).update(f"[red]{exc}[/red]")
+            self.query_one("#setup-status", Static).update(f"[red]{escape(str(exc))}[/red]")
             return
-        self.notify(f"set-up loaded from {path}")
+        self.notify(f"set-up loaded from {path}", markup=False)
 
     def load(self, source: dict[str, Any]) -> None:
         self.source = copy.deepcopy(source)
@@ -415,16 +417,16 @@ class SetupScreen(Screen):
         try:
             write_text_atomic(path, setup_toml_text(self.source))
         except (SetupError, OSError) as exc:
-            self.query_one("#setup-status", Static).update(f"[red]cannot save: {exc}[/red]")
+            self.query_one("#setup-status", Static).update(f"[red]cannot save: {escape(str(exc))}[/red]")
             return
-        self.notify(f"set-up saved to {path}")
+        self.notify(f"set-up saved to {path}", markup=False)
 
     def action_start(self) -> None:
         if self._building:
             self.notify("the set-up form is still loading", severity="warning")
             return
         if not self.check():
-            self.notify(f"the set-up is not valid: {self.problem}", severity="error")
+            self.notify(f"the set-up is not valid: {self.problem}", severity="error", markup=False)
             return
         out = self.query_one("#run-dir", Input).value.strip()
         self.app.start_run(copy.deepcopy(self.source), Path(out) if out else None,  # type: ignore[attr-defined]
