@@ -86,6 +86,24 @@ def test_simulated_positioning_run_goes_through_every_command(tmp_path: Path, ca
     assert again["baseline"]["rms_um"] == pytest.approx(d["final"]["rms_um"], rel=1e-3)
 
 
+def test_a_noise_free_simulation_names_exactly_what_it_hid(tmp_path: Path, capsys) -> None:
+    """``simulate --no-noise``: the hidden effects come back to the precision of the wavelength search and
+    nothing else is named (not the rounding left after them, not a time-origin leak into a scale error)."""
+    scenario = tmp_path / "scenario.toml"
+    scenario.write_text(SCENARIO)
+    run = tmp_path / "run"
+    assert run_cli(capsys, "simulate", str(scenario), "--out", str(run), "--no-noise")[0] == 0
+    code, out, err = run_cli(capsys, "diagnose", str(run), "--json")
+    assert code == 0, err
+    d = json.loads(out)
+    assert d["named"] == ["periodic", "thermal_growth"] and d["ambiguous"] == [], d["named"]
+    final = {e["type"]: e for e in d["final"]["model"]}
+    assert final["thermal_growth"]["ppm_per_min"] == pytest.approx(0.06, rel=1e-4)
+    assert final["periodic"]["amplitude_um"] == pytest.approx(0.9, rel=1e-4)
+    assert final["periodic"]["wavelength_mm"] == pytest.approx(310.0, abs=0.01)
+    assert d["final"]["rms_um"] < 1e-4
+
+
 def test_simulate_is_reproducible_by_seed(tmp_path: Path, capsys) -> None:
     scenario = tmp_path / "s.toml"
     scenario.write_text(STRAIGHTNESS)

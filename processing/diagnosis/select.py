@@ -48,13 +48,17 @@ class Rule:
     bic_margin: float = 10.0
     max_steps: int = 8
     region_alpha: float = 0.05
+    # a residual RMS below this holds nothing to diagnose: no interferometer resolves 0.1 nm, and the
+    # rounding of a noise-free simulation (--no-noise) would otherwise pass every test
+    resolution_um: float = 1e-4
 
     def to_dict(self) -> dict[str, Any]:
         return {"alpha_per_step": self.alpha, "channels": self.channels,
                 "bonferroni": "alpha / (channels x candidates of the channel)",
                 "bic_decrease_min": self.bic_margin, "cv": "grouped cross-validation RMSE must decrease",
                 "ambiguity": f"another significant candidate within {self.bic_margin:g} of the best BIC that "
-                             "adds nothing significant after it", "max_steps": self.max_steps}
+                             "adds nothing significant after it", "max_steps": self.max_steps,
+                "resolution_um": self.resolution_um}
 
 
 # -- noise --------------------------------------------------------------------------------------------------
@@ -248,7 +252,7 @@ def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int,
     threshold = rule.alpha / (max(k_tested, 1) * max(rule.channels, 1))
     before = current_folds or fold_fits(current.design, current.target, obs.folds)
     cv_before, cv_after = cv_rmse([before, fold_fits(fit.design, fit.target, obs.folds)])
-    significant = (p < threshold and dbic <= -rule.bic_margin
+    significant = (p < threshold and dbic <= -rule.bic_margin and current.rms_um > rule.resolution_um
                    and (cv_before is None or cv_after is None or cv_after < cv_before))
     return CandidateTest(fit.effects[-1], fit, added_total, dbic, f_stat, p, threshold, cv_before, cv_after,
                          significant, m_eff)
