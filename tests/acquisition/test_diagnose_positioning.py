@@ -312,3 +312,47 @@ def test_an_imported_compensated_run_is_diagnosed_like_an_acquired_one(tmp_path:
     assert abs(final["linear_scale"]["ppm"] - 2.0) <= 4 * final["linear_scale"]["se"]["ppm"]
     assert out["final"]["rms_um"] <= 1.2 * SIGMA_UM
     assert "dead_path" in out["not_testable"]  # no air recorded
+
+
+def test_an_imported_raw_run_is_compensated_and_diagnosed_like_an_acquired_one(tmp_path: Path, capsys) -> None:
+    """Raw vacuum counts of an axis at a drifting material temperature, imported without --compensated:
+    the deviations are compensated (air index, expansion to 20 C) before the diagnosis, which finds
+    the hidden backlash and scale error and nothing of the air or the material.
+
+    The counts are written from first principles: X_T = X_20 (1 + α (T_m − 20 °C)) (ISO 1), read in
+    air of index n through a vacuum-wavelength count, reading = X_T · n; the air is held at the NIST
+    reference point of standards.md 3.4 (Ciddor, 633 nm, 450 ppm CO2: n = 1.000271373)."""
+    rows = linear_cycle(TARGETS_MM, 5)
+    rng = np.random.default_rng(4)
+    alpha, t_end = 11.5e-6, rows[-1]["time_s"]
+    csv_path = tmp_path / "raw.csv"
+    with open(csv_path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["run", "direction", "target_mm", "reading_mm", "time_s", "air_temp_c", "air_pressure_hpa",
+                    "humidity_pct", "material_temp_c"])
+        for r in rows:
+            material_c = 20.2 + 0.6 * r["time_s"] / t_end  # 0.6 K during the run
+            e_um = r["direction"] * -1.5 + 2.0 * r["target_mm"] / 1000 + rng.normal(0, SIGMA_UM)
+            x20 = r["target_mm"] + e_um / 1000
+            reading = x20 * (1 + alpha * (material_c - 20.0)) * N_REF
+            w.writerow([r["run"], r["direction"], r["target_mm"], repr(reading), r["time_s"], 20.0, 1013.25, 50.0,
+                        repr(material_c)])
+    common = ["--equation", "ciddor", "--wavelength-nm", "633.0", "--co2-ppm", "450"]
+    assert main(["import", "positioning", str(csv_path), "--out", str(tmp_path / "run"),
+                 "--expansion-ppm-per-k", "11.5", *common]) == 0
+    capsys.readouterr()
+    assert main(["diagnose", str(tmp_path / "run"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert sorted(out["named"]) == ["backlash", "linear_scale"] and out["ambiguous"] == []
+    final = {e["type"]: e for e in out["final"]["model"]}
+    assert abs(final["backlash"]["reversal_um"] + 3.0) <= 4 * final["backlash"]["se"]["reversal_um"]
+    assert abs(final["linear_scale"]["ppm"] - 2.0) <= 4 * final["linear_scale"]["se"]["ppm"]
+    assert out["final"]["rms_um"] <= 1.2 * SIGMA_UM
+    # the same counts taken as compensated: the air index and the material's growth are left in them
+    assert main(["import", "positioning", str(csv_path), "--out", str(tmp_path / "as_is"), "--compensated"]) == 0
+    capsys.readouterr()
+    assert main(["diagnose", str(tmp_path / "as_is"), "--json"]) == 0
+    wrong = json.loads(capsys.readouterr().out)
+    assert "thermal_growth" in wrong["named"]
+    scale = next(e for e in wrong["final"]["model"] if e["type"] == "linear_scale")
+    assert scale["ppm"] > 250.0  # (n - 1) = 271 ppm, and the expansion at 20.2 C
