@@ -28,6 +28,7 @@ import pytest
 
 from acquisition.diagnose import diagnose_run
 from acquisition.scenario import model_from_dict
+from tests.effect_equations import positioning_effect_um
 from tui.cli import main
 
 SIGMA_UM = 0.15
@@ -63,30 +64,10 @@ def pitch_profile_urad(p_mm: np.ndarray) -> np.ndarray:
 
 
 def effect_um(kind: str, q: dict, rows: list[dict], pitch: np.ndarray, yaw: np.ndarray, dn: np.ndarray) -> np.ndarray:
-    """The documented equation of one effect (docs/diagnosis.md), µm per point."""
-    P = np.array([r["target_mm"] for r in rows])
-    s = np.array([r["direction"] for r in rows], dtype=float)
+    """The documented equation of one effect (docs/diagnosis.md), µm per point of the cycle ``rows``."""
     t = np.array([r["time_s"] for r in rows]) / 60.0
-    t = t - t.min()  # minutes since the first point
-    if kind == "linear_scale":
-        return q["ppm"] * P / 1000
-    if kind == "quadratic":
-        return q["um_per_m2"] * (P / 1000) ** 2
-    if kind == "backlash":
-        return s * q["reversal_um"] / 2
-    if kind == "periodic":
-        return q["amplitude_um"] * np.sin(2 * np.pi * P / q["wavelength_mm"] + q["phase_rad"])
-    if kind == "thermal_drift":
-        return q["um_per_min"] * t
-    if kind == "thermal_growth":
-        return q["ppm_per_min"] * P * t / 1000
-    if kind == "abbe":
-        return q["offset_mm"] * (pitch if q["channel"] == "pitch" else yaw) / 1000
-    if kind == "dead_path":
-        return q["length_mm"] * dn * 1000
-    if kind == "error_table":
-        return np.interp(P, q["positions_mm"], q["error_um"])
-    raise AssertionError(kind)
+    return positioning_effect_um(kind, q, [r["target_mm"] for r in rows], [r["direction"] for r in rows],
+                                 t - t.min(), pitch, yaw, dn)
 
 
 def write_run(path: Path, rows: list[dict], effects: list[tuple[str, dict]], *, seed: int,

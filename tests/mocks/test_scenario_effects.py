@@ -3,7 +3,7 @@ sign and units docs/diagnosis.md gives it (e = reading − target, µm; P in mm;
 the first measured point; s = ±1 by approach direction; ε the recorded angle in µrad; n − n₀ the
 air index change since the first point).
 
-The expected values are written here from the documented equations; the axis' angular motion
+The expected values come from the documented equations (tests/effect_equations.py); the axis' angular motion
 and the air index change are computed from their own definitions (a tilt per metre plus a wave;
 (n − 1) proportional to the air density at constant temperature and humidity, standards.md 3.4),
 not taken from mocks/ or processing/.
@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import pytest
 
 from mocks.effects import AngularMotion, AxisEffects, Conditions
 from mocks.machine_axis import AxisErrors, MachineAxis, MachineStop
 from mocks.offline import axis_captures
+from tests.effect_equations import positioning_effect_um
 
 TARGETS_MM = (0.0, 240.5, 498.2, 751.9, 1000.0)
 N_REF = 1.000271373  # NIST: 20 C, 101325 Pa, 50 %RH, 450 ppm CO2, 633 nm (standards.md 3.4)
@@ -45,29 +45,6 @@ def pitch_urad(p: float) -> float:
 
 def yaw_urad(p: float) -> float:
     return -3.0 * p / 1000 + 4.0 * math.sin(2 * math.pi * p / 520.0 - 1.0)
-
-
-def documented_um(kind: str, q: dict, p: float, s: int, t_min: float, dn: float) -> float:
-    """The equations of docs/diagnosis.md, 'The effect library', positioning."""
-    if kind == "error_table":
-        return float(np.interp(p, q["positions_mm"], q["error_um"]))
-    if kind == "linear_scale":
-        return q["ppm"] * p * 1e-3
-    if kind == "quadratic":
-        return q["um_per_m2"] * (p / 1000) ** 2
-    if kind == "backlash":
-        return s * q["reversal_um"] / 2
-    if kind == "periodic":
-        return q["amplitude_um"] * math.sin(2 * math.pi * p / q["wavelength_mm"] + q["phase_rad"])
-    if kind == "thermal_drift":
-        return q["um_per_min"] * t_min
-    if kind == "thermal_growth":
-        return q["ppm_per_min"] * p * t_min * 1e-3
-    if kind == "abbe":
-        return q["offset_mm"] * (pitch_urad(p) if q["channel"] == "pitch" else yaw_urad(p)) * 1e-3
-    if kind == "dead_path":
-        return q["length_mm"] * dn * 1e3
-    raise AssertionError(kind)
 
 
 CASES = {
@@ -104,7 +81,8 @@ def test_the_axis_applies_each_effect_as_documented(case: str) -> None:
         assert c.yaw_urad == pytest.approx(yaw_urad(stop.position), abs=1e-9)
         # (n - 1) proportional to the pressure at 20 C and 50 %RH
         dn = (N_REF - 1) * (r["environment"][1] - p0) / p0
-        want = documented_um(kind, q, stop.position, stop.direction, (r["time_s"] - t0) / 60.0, dn)
+        want = float(positioning_effect_um(kind, q, stop.position, stop.direction, (r["time_s"] - t0) / 60.0,
+                                           pitch_urad(stop.position), yaw_urad(stop.position), dn))
         got = (c.position_mm - stop.position) * 1000.0
         # the ideal-gas index change is good to a few 0.1 % of itself; everything else is exact
         assert got == pytest.approx(want, abs=1e-6 + (0.01 * abs(want) if kind == "dead_path" else 0.0)), (
