@@ -143,6 +143,18 @@ def test_bad_diagnose_input_is_a_one_line_error(tmp_path: Path, capsys) -> None:
     model.write_text('kind = "straightness"\n[[effect]]\ntype = "lever_arm"\nerror_mm = "x"\n')
     code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(model))
     assert code == 2 and "error_mm must be a number" in err
+    code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(model))
+    assert code == 2 and "error_mm must be a number" in err
+    # a model effect the run cannot evaluate (an imported run without times): no silent NaN
+    data = tmp_path / "data.csv"
+    data.write_text("run,direction,target_mm,reading_mm\n" + "".join(
+        f"{r},{d},{p},{p + 1e-4 * (r + d)}\n" for r in (1, 2) for d in (1, -1) for p in (0.0, 250.0, 500.0)))
+    assert run_cli(capsys, "import", "positioning", str(data), "--out", str(tmp_path / "imported"),
+                   "--compensated")[0] == 0
+    model.write_text('kind = "positioning"\n[[effect]]\ntype = "thermal_drift"\nfree = true\n')
+    code, out, err = run_cli(capsys, "diagnose", str(tmp_path / "imported"), "--model", str(model))
+    assert code == 2 and err.count("guideway: error:") == 1 and "thermal_drift cannot be evaluated" in err, (out, err)
+    assert "no time_s recorded" in err and out == ""
     code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "nothing"))
     assert code == 2 and "no such run directory" in err
     code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(tmp_path / "missing.toml"))

@@ -307,6 +307,11 @@ def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect]
     """
     rule = rule or Rule()
     model = tuple(model)
+    for e in model:
+        missing = [k for k in basis.needs(e.type, e.variant) if not obs.has(k)]
+        if missing:
+            raise ValueError(f"the model's {e.label} cannot be evaluated on this run "
+                             f"({NEEDS_TEXT.get(missing[0], f'{missing[0]} not recorded')}); take it out of the model")
     baseline = fit_model(obs, model)
     base_noise = noise_estimate(obs, baseline)
     regions = disagreement(obs, baseline.residual, base_noise.sigma_um, rule.region_alpha)
