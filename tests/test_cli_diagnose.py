@@ -123,12 +123,27 @@ def test_simulate_is_reproducible_by_seed(tmp_path: Path, capsys) -> None:
      "wavelength_mm is missing"),
     ('kind = "straightness"\n[[effect]]\ntype = "sensor_gain"\nppm = 5.0\n', "no [block] table"),
     ('kind = "positioning"\n[noise]\nreading_nm = 3\n[axis]\nend_mm = 500.0\n', "unknown key 'reading_nm'"),
+    ('kind = "positioning"\nseed = -3\n[axis]\nend_mm = 500.0\n', "seed must be a whole number >= 0"),
 ])
 def test_bad_scenarios_are_one_line_errors(tmp_path: Path, capsys, text: str, fragment: str) -> None:
     path = tmp_path / "bad.toml"
     path.write_text(text)
     code, _, err = run_cli(capsys, "simulate", str(path), "--out", str(tmp_path / "run"))
     assert code == 2 and err.count("guideway: error:") == 1 and fragment in err, err
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize("command", [["simulate", "SCENARIO", "--out", "RUN"], ["demo", "--out", "RUN"],
+                                     ["acquire", "positioning", "--simulate", "--out", "RUN"], ["sim", "serve"],
+                                     ["tui", "--out", "RUN"]])
+def test_a_negative_seed_is_a_one_line_error(tmp_path: Path, capsys, command: list[str]) -> None:
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(STRAIGHTNESS)
+    args = [{"SCENARIO": str(scenario), "RUN": str(tmp_path / "run")}.get(a, a) for a in command]
+    with pytest.raises(SystemExit) as exc:
+        main([*args, "--seed", "-1"])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and err.count("guideway: error:") == 1 and "a seed is a whole number >= 0" in err, err
     assert not (tmp_path / "run").exists()
 
 
