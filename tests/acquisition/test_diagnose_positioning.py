@@ -107,7 +107,7 @@ def write_run(path: Path, rows: list[dict], effects: list[tuple[str, dict]], *, 
 
 
 def true_standard_errors(effects: list[tuple[str, dict]], rows: list[dict], pitch: np.ndarray | None = None,
-                         pressure_pa=None) -> dict[str, dict[str, np.ndarray]]:
+                         pressure_pa=None) -> list[dict[str, np.ndarray]]:
     """σ²(JᵀJ)⁻¹ at the truth, σ = SIGMA_UM: J holds the offset and the derivative of every effect's
     equation (effect_um) by each of its numeric parameters (central differences; a table's values: its
     hat functions, the offset projected out so that the inverse is the one of the zero-sum gauge)."""
@@ -117,7 +117,7 @@ def true_standard_errors(effects: list[tuple[str, dict]], rows: list[dict], pitc
     pres = pressure_pa(t_s) if pressure_pa is not None else np.full(n, P_REF_PA)
     dn = (N_REF - 1) * (pres - pres[0]) / P_REF_PA
     cols, owners = [np.ones(n)], []
-    for kind, q in effects:
+    for index, (kind, q) in enumerate(effects):
         for name, v in q.items():
             if isinstance(v, str) or name == "positions_mm":
                 continue
@@ -126,24 +126,25 @@ def true_standard_errors(effects: list[tuple[str, dict]], rows: list[dict], pitc
                     unit = {**q, name: list(np.eye(len(v))[j])}
                     hat = effect_um(kind, unit, rows, pitch, np.zeros(n), dn)
                     cols.append(hat - hat.mean())
-                    owners.append((kind, name))
+                    owners.append((index, name))
                 continue
             h = 1e-6 * max(abs(v), 1.0)
             up = effect_um(kind, {**q, name: v + h}, rows, pitch, np.zeros(n), dn)
             down = effect_um(kind, {**q, name: v - h}, rows, pitch, np.zeros(n), dn)
             cols.append((up - down) / (2 * h))
-            owners.append((kind, name))
+            owners.append((index, name))
     j = np.column_stack(cols)
     se = SIGMA_UM * np.sqrt(np.diag(np.linalg.pinv(j.T @ j, rcond=1e-10)))[1:]
-    out: dict[str, dict[str, list]] = {}
-    for (kind, name), s in zip(owners, se, strict=True):
-        out.setdefault(kind, {}).setdefault(name, []).append(float(s))
-    return {k: {n_: np.array(v) for n_, v in d.items()} for k, d in out.items()}
+    out: list[dict[str, list]] = [{} for _ in effects]
+    for (index, name), s in zip(owners, se, strict=True):
+        out[index].setdefault(name, []).append(float(s))
+    return [{name: np.array(v) for name, v in d.items()} for d in out]
 
 
-def check_recovered(effect, se: dict, truth: dict, true_se: dict[str, np.ndarray], k: float = 4.0) -> None:
+def check_recovered(effect, se: dict, truth: dict, true_se: dict[str, np.ndarray], k: float = 4.0,
+                    se_rel: float = 0.25) -> None:
     """Every parameter within ``k`` true standard errors of the truth; the reported standard errors
-    within 25 % of the true ones."""
+    within ``se_rel`` of the true ones (about 4 / √(2·dof): their σ is estimated)."""
     for name, value in truth.items():
         if isinstance(value, str) or name == "positions_mm":
             assert effect.params[name] == (value if isinstance(value, str) else tuple(value))
@@ -155,7 +156,7 @@ def check_recovered(effect, se: dict, truth: dict, true_se: dict[str, np.ndarray
             got = np.array([math.remainder(got[0] - value, 2 * math.pi) + value])
         s_true = true_se[name]
         assert np.all(np.abs(got - want) <= k * s_true), f"{effect.type}.{name}: {got} vs {want} (SE {s_true})"
-        assert np.all((0.75 * s_true < s) & (s < 1.25 * s_true)), f"{effect.type}.{name}: SE {s} vs {s_true}"
+        assert np.all(np.abs(s / s_true - 1) < se_rel), f"{effect.type}.{name}: SE {s} vs {s_true}"
 
 
 def diagnose(path: Path, model: dict | None = None):
@@ -198,7 +199,7 @@ def test_every_hidden_effect_is_named_recovered_and_closes_the_gap(tmp_path: Pat
         truth = {"positions_mm": list(TARGETS_MM), "error_um": list(np.interp(TARGETS_MM, TABLE_NODES, TABLE_ERRORS))}
     true_se = true_standard_errors([(kind, truth)], rows, env.get("pitch_fn", lambda p: 0 * p)(
         np.array([r["target_mm"] for r in rows])), env.get("pressure_pa"))
-    check_recovered(step.effect, step.fit.se[-1], truth, true_se[kind])
+    check_recovered(step.effect, step.fit.se[-1], truth, true_se[0])
     assert ch.final.rms_um <= 1.2 * SIGMA_UM
     assert ch.baseline.rms_um > 1.5 * SIGMA_UM  # the effect was really there
     assert 0.75 * SIGMA_UM < ch.noise.sigma_um < 1.25 * SIGMA_UM
@@ -233,9 +234,63 @@ def test_two_hidden_effects_are_both_named(tmp_path: Path, pair) -> None:
     final = {e.type: (e, se) for e, se in zip(d.primary.final.effects, d.primary.final.se, strict=True)}
     true_se = true_standard_errors(list(pair), rows, pitch_profile_urad(np.array([r["target_mm"] for r in rows])),
                                    pressure_cycle)
-    for kind, params in pair:
-        check_recovered(final[kind][0], final[kind][1], params, true_se[kind])
+    for (kind, params), s in zip(pair, true_se, strict=True):
+        check_recovered(final[kind][0], final[kind][1], params, s)
     assert d.primary.final.rms_um <= 1.2 * SIGMA_UM
+
+
+def test_two_periodic_errors_are_both_named(tmp_path: Path) -> None:
+    """A screw lead and a longer wave: two periodic effects, each recovered (matched by wavelength)."""
+    rows = linear_cycle(TARGETS_MM, 5)
+    waves = [("periodic", {"amplitude_um": 0.8, "wavelength_mm": 230.0, "phase_rad": 1.0}),
+             ("periodic", {"amplitude_um": 1.2, "wavelength_mm": 640.0, "phase_rad": -0.5})]
+    d = diagnose(write_run(tmp_path / "run", rows, waves, seed=2))
+    assert d.named == ["periodic", "periodic"] and d.ambiguous == []
+    ch = d.primary
+    fitted = sorted(zip(ch.final.effects, ch.final.se, strict=True), key=lambda f: f[0].params["wavelength_mm"])
+    for (effect, se), truth, s in zip(fitted, waves, true_standard_errors(waves, rows), strict=True):
+        check_recovered(effect, se, truth[1], s)
+    assert ch.final.rms_um <= 1.2 * SIGMA_UM
+
+
+def test_steps_told_again_after_the_backward_pass_keep_both_periodic_effects(tmp_path: Path, monkeypatch) -> None:
+    """The steps are told again in order of evidence whenever the backward pass changed the model; two
+    effects of one type (two periods) are both told, not merged by their common name."""
+    from processing.diagnosis import select
+
+    backward = select._backward
+    monkeypatch.setattr(select, "_backward", lambda obs, final, n, rule: backward(obs, final, n, rule) or final)
+    rows = linear_cycle(TARGETS_MM, 5)
+    waves = [("periodic", {"amplitude_um": 0.8, "wavelength_mm": 230.0, "phase_rad": 1.0}),
+             ("periodic", {"amplitude_um": 1.2, "wavelength_mm": 640.0, "phase_rad": -0.5})]
+    d = diagnose(write_run(tmp_path / "run", rows, waves, seed=2))
+    assert d.named == ["periodic", "periodic"]
+    assert d.primary.final.rms_um <= 1.2 * SIGMA_UM
+
+
+def test_five_targets_name_a_scale_a_wave_and_backlash(tmp_path: Path) -> None:
+    """Five targets over a metre (the ISO 230-2 minimum, as docs/setup-positioning.toml generates them)
+    and three runs: a scale error, a long wave and backlash hidden.  On five positions two periodic effects
+    at nearly the same wavelength, with huge opposite amplitudes, mimic any P·cos(...) shape: the travel
+    cannot tell such periods apart, so a second period is searched a frequency resolution (1 / span) away
+    from the first.  Every named effect is significant in the final model (the backward pass's test); a
+    step that is not significant on its own says so and shows that evidence."""
+    targets = (4.404, 312.43, 572.084, 805.396, 995.31)
+    rows = linear_cycle(targets, 3)
+    hidden = [("linear_scale", {"ppm": 6.0}), ("periodic", {"amplitude_um": 4.0, "wavelength_mm": 700.0,
+                                                            "phase_rad": 0.4}), ("backlash", {"reversal_um": -3.0})]
+    for seed in (0, 1, 9):
+        d = diagnose(write_run(tmp_path / f"run{seed}", rows, hidden, seed=seed, targets=targets))
+        assert sorted(d.named) == ["backlash", "linear_scale", "periodic"] and d.ambiguous == [], (seed, d.named)
+        ch = d.primary
+        assert ch.final.rms_um <= 1.2 * SIGMA_UM, seed
+        for s in ch.steps:
+            assert s.in_final is not None and s.in_final.significant, (seed, s.test.label)
+        out = d.to_dict()
+        assert all(step["evidence_in_final"]["significant"] for step in out["steps"])
+        final = {e.type: (e, se) for e, se in zip(ch.final.effects, ch.final.se, strict=True)}
+        for (kind, params), s in zip(hidden, true_standard_errors(hidden, rows), strict=True):
+            check_recovered(final[kind][0], final[kind][1], params, s, se_rel=0.6)  # 30 points, 6 parameters
 
 
 def test_linear_scale_inside_a_free_error_table_is_ambiguous(tmp_path: Path) -> None:
