@@ -19,6 +19,7 @@ noise estimated from the repeat approaches within 25 % of σ (relative standard 
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 from pathlib import Path
@@ -27,6 +28,7 @@ import numpy as np
 import pytest
 
 from acquisition.diagnose import diagnose_run
+from acquisition.report.diagnosis import render_diagnosis
 from acquisition.scenario import model_from_dict
 from tests.effect_equations import positioning_effect_um
 from tui.cli import main
@@ -279,6 +281,7 @@ def test_five_targets_name_a_scale_a_wave_and_backlash(tmp_path: Path) -> None:
     rows = linear_cycle(targets, 3)
     hidden = [("linear_scale", {"ppm": 6.0}), ("periodic", {"amplitude_um": 4.0, "wavelength_mm": 700.0,
                                                             "phase_rad": 0.4}), ("backlash", {"reversal_um": -3.0})]
+    seen_alone = 0
     for seed in (0, 1, 9):
         d = diagnose(write_run(tmp_path / f"run{seed}", rows, hidden, seed=seed, targets=targets))
         assert sorted(d.named) == ["backlash", "linear_scale", "periodic"] and d.ambiguous == [], (seed, d.named)
@@ -288,9 +291,17 @@ def test_five_targets_name_a_scale_a_wave_and_backlash(tmp_path: Path) -> None:
             assert s.in_final is not None and s.in_final.significant, (seed, s.test.label)
         out = d.to_dict()
         assert all(step["evidence_in_final"]["significant"] for step in out["steps"])
+        alone = [s for s in ch.steps if not s.test.significant]
+        told = io.StringIO()
+        d.print_summary(told)
+        html = render_diagnosis(d)
+        assert told.getvalue().count("significant only with the later steps") == len(alone), told.getvalue()
+        assert html.count("significant only with the later steps") == len(alone)
+        seen_alone += len(alone)
         final = {e.type: (e, se) for e, se in zip(ch.final.effects, ch.final.se, strict=True)}
         for (kind, params), s in zip(hidden, true_standard_errors(hidden, rows), strict=True):
             check_recovered(final[kind][0], final[kind][1], params, s, se_rel=0.6)  # 30 points, 6 parameters
+    assert seen_alone > 0  # the case the summary and the report must explain did occur
 
 
 def test_linear_scale_inside_a_free_error_table_is_ambiguous(tmp_path: Path) -> None:
