@@ -167,7 +167,7 @@ class _Scan:
         else:
             f0 = 1.0 / around
         df = 1.0 / (OVERSAMPLE * span)
-        lo, hi = max(f0 - df, 0.2 / span), f0 + df
+        lo, hi = max(f0 - df, 1.0 / span), f0 + df  # one full period inside the travel, as the grid
         for f in taken:  # keep the refinement on f0's side of every other period, a resolution away
             if f <= f0:
                 lo = max(lo, min(f + 1.0 / span, f0))

@@ -381,28 +381,31 @@ def _pick(tests: list[CandidateTest]) -> CandidateTest | None:
 
 def _forward(obs: Observations, start: Fit, rule: Rule, not_testable: dict[str, str],
              allowed: Counter[str] | None = None) -> tuple[list[Step], tuple[CandidateTest, ...]]:
-    """Add the best significant candidate until none is left (only those in ``allowed``, best first, when
-    given: the steps told again after the backward pass)."""
+    """Add the best significant candidate until none is left; with ``allowed`` (the steps told again after
+    the backward pass) those first, best first, then any other significant one: the loop ends only when
+    nothing significant is left (or after ``rule.max_steps`` steps beyond the ones told again)."""
     steps: list[Step] = []
     current = start
     tested: list[CandidateTest] = []
-    for _ in range(rule.max_steps if allowed is None else allowed.total()):
-        if allowed is None:
-            tested = _round(obs, current, rule, not_testable)
-            best = _pick(tested)
-        else:
-            left = allowed - Counter(e.label for e in current.effects[len(start.effects):])
+    told = Counter() if allowed is None else allowed
+    for _ in range(rule.max_steps + told.total()):
+        left = told - Counter(e.label for e in current.effects[len(start.effects):])
+        if left:
             tested = _round(obs, current, rule, not_testable, catch_all=any(lb in CATCH_ALL for lb in left))
             pool = [t for t in tested if t.effect.label in left]
             # the significant ones first: each step's evidence is then that of a step the rule takes
             best = _pick(pool) or next((t for t in pool if t.effect.type not in CATCH_ALL), pool[0] if pool else None)
-        if best is None:
-            break
+            if best is None:  # cannot be told again (no longer testable here): carry on with the rule
+                told = Counter()
+                continue
+        else:
+            tested = _round(obs, current, rule, not_testable)
+            best = _pick(tested)
+            if best is None:
+                break
         assert best.fit is not None
         current = fit_model(obs, best.fit.effects)  # all wavelengths refined, standard errors
         steps.append(Step(best, current, noise_estimate(obs, current), tuple(tested)))
-    if allowed is not None:
-        tested = _round(obs, current, rule, not_testable)
     return steps, tuple(tested)
 
 
