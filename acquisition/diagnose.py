@@ -70,6 +70,7 @@ class Diagnosis:
                 steps.append({"effect": s.test.effect.type, "label": s.test.effect.label, "channel": ch.obs.channel,
                               "params": _params(s.effect), "se": _clean(s.fit.se[-1]), "rms_um": s.fit.rms_um,
                               "max_um": s.fit.max_um, "noise_um": s.noise.sigma_um, "evidence": s.test.evidence(),
+                              "evidence_in_final": s.in_final.evidence() if s.in_final else None,
                               "ambiguous_with": list(s.ambiguous_with)})
         out = {
             "kind": self.run.kind,
@@ -112,9 +113,13 @@ class Diagnosis:
                           file=stream)
             for i, s in enumerate(ch.steps, start=1):
                 tag = f"ambiguous with {', '.join(s.ambiguous_with)} (not named)" if s.ambiguous_with else "named"
+                together = ""
+                if not s.test.significant and s.in_final is not None:
+                    together = (f"; significant only with the later steps: in the final model dBIC "
+                                f"{s.in_final.delta_bic:.1f}, p {s.in_final.p_value:.2g}")
                 print(f"  step {i}: {s.test.effect.label} {tag}: {format_params(s.effect, s.fit.se[-1])}; "
                       f"RMS {s.fit.rms_um:.3f} um, max {s.fit.max_um:.3f} um "
-                      f"(dBIC {s.test.delta_bic:.1f}, p {s.test.p_value:.2g})", file=stream)
+                      f"(dBIC {s.test.delta_bic:.1f}, p {s.test.p_value:.2g}{together})", file=stream)
             if not ch.steps:
                 print("  nothing significant is missing from the model", file=stream)
             print(f"  final: RMS {ch.final.rms_um:.3f} um, max {ch.final.max_um:.3f} um, "

@@ -133,6 +133,8 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "scenario") -> Sce
     top = _Table(source, "", dict(data))
     top.get("kind", str)
     seed = top.get("seed", int, 0)
+    if seed < 0:
+        raise SetupError(f"{source}: seed must be a whole number >= 0, got {seed}")
     effects = _effects(data, kind, source, simulation=True)
     top.used.add("effect")
     if kind == "positioning":

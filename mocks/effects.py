@@ -6,7 +6,7 @@ compares two separate implementations of the documented physics.  Effects arrive
 ``(type, parameters)`` pairs, units in the parameter names.
 
 Positioning (the true axis position moves by e, µm; P = target position, mm; t = minutes since
-the program started; s = +1 / −1 approach direction; ε the axis' angular motion at P, µrad;
+the first measured point; s = +1 / −1 approach direction; ε the axis' angular motion at P, µrad;
 Δn the air index change since the first measured point)::
 
     error_table     interp(P)            linear_scale    ppm · P / 1000

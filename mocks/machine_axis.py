@@ -182,6 +182,7 @@ class MachineAxis:
         self.captured: list[tuple[int, float]] = []  # (stop index, true actual position) per capture
         self._n0: float | None = None  # air index at the first measured point (dead path)
         self._effects_n0: float | None = None  # the same for a scenario's dead_path effect
+        self._effects_t0: float | None = None  # time (s) of the first measured point: the effects' t = 0
         self._t_built = time.monotonic()
 
     # -- units: errors are um (linear) or arcsec (rotary) -------------------------------------
@@ -199,17 +200,23 @@ class MachineAxis:
         return s.position + self._unit(e)
 
     def _effect_error(self, s: MachineStop) -> float:
-        """The scenario effects' error (um) at stop ``s`` now."""
+        """The scenario effects' error (um) at stop ``s`` now.
+
+        Time and air index count from the first measured point (docs/diagnosis.md: t = minutes since
+        the first point, n₀ = the index of the first point), wherever the program started."""
         assert self.effects is not None
         t_s = time.monotonic() - self._t_built if self.wall_clock_effects else self.machine_time_s
+        if self._effects_t0 is None and s.target_index:
+            self._effects_t0 = t_s
         dn = 0.0
         if self.effects.needs_air_index():
             air_t, p, rh, _ = self.environment_now()
             n = (self.optics or LinearOptics()).index(air_t, p, rh)
-            if self._effects_n0 is None:
+            if self._effects_n0 is None and s.target_index:
                 self._effects_n0 = n
-            dn = n - self._effects_n0
-        return self.effects.error_um(s.position, s.direction, t_s / 60.0, dn)
+            dn = n - (n if self._effects_n0 is None else self._effects_n0)
+        t0 = t_s if self._effects_t0 is None else self._effects_t0
+        return self.effects.error_um(s.position, s.direction, (t_s - t0) / 60.0, dn)
 
     # -- the program ---------------------------------------------------------------------------
     def _advance(self) -> None:

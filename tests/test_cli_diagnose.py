@@ -86,6 +86,24 @@ def test_simulated_positioning_run_goes_through_every_command(tmp_path: Path, ca
     assert again["baseline"]["rms_um"] == pytest.approx(d["final"]["rms_um"], rel=1e-3)
 
 
+def test_a_noise_free_simulation_names_exactly_what_it_hid(tmp_path: Path, capsys) -> None:
+    """``simulate --no-noise``: the hidden effects come back to the precision of the wavelength search and
+    nothing else is named (not the rounding left after them, not a time-origin leak into a scale error)."""
+    scenario = tmp_path / "scenario.toml"
+    scenario.write_text(SCENARIO)
+    run = tmp_path / "run"
+    assert run_cli(capsys, "simulate", str(scenario), "--out", str(run), "--no-noise")[0] == 0
+    code, out, err = run_cli(capsys, "diagnose", str(run), "--json")
+    assert code == 0, err
+    d = json.loads(out)
+    assert d["named"] == ["periodic", "thermal_growth"] and d["ambiguous"] == [], d["named"]
+    final = {e["type"]: e for e in d["final"]["model"]}
+    assert final["thermal_growth"]["ppm_per_min"] == pytest.approx(0.06, rel=1e-4)
+    assert final["periodic"]["amplitude_um"] == pytest.approx(0.9, rel=1e-4)
+    assert final["periodic"]["wavelength_mm"] == pytest.approx(310.0, abs=0.01)
+    assert d["final"]["rms_um"] < 1e-4
+
+
 def test_simulate_is_reproducible_by_seed(tmp_path: Path, capsys) -> None:
     scenario = tmp_path / "s.toml"
     scenario.write_text(STRAIGHTNESS)
@@ -105,12 +123,27 @@ def test_simulate_is_reproducible_by_seed(tmp_path: Path, capsys) -> None:
      "wavelength_mm is missing"),
     ('kind = "straightness"\n[[effect]]\ntype = "sensor_gain"\nppm = 5.0\n', "no [block] table"),
     ('kind = "positioning"\n[noise]\nreading_nm = 3\n[axis]\nend_mm = 500.0\n', "unknown key 'reading_nm'"),
+    ('kind = "positioning"\nseed = -3\n[axis]\nend_mm = 500.0\n', "seed must be a whole number >= 0"),
 ])
 def test_bad_scenarios_are_one_line_errors(tmp_path: Path, capsys, text: str, fragment: str) -> None:
     path = tmp_path / "bad.toml"
     path.write_text(text)
     code, _, err = run_cli(capsys, "simulate", str(path), "--out", str(tmp_path / "run"))
     assert code == 2 and err.count("guideway: error:") == 1 and fragment in err, err
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize("command", [["simulate", "SCENARIO", "--out", "RUN"], ["demo", "--out", "RUN"],
+                                     ["acquire", "positioning", "--simulate", "--out", "RUN"], ["sim", "serve"],
+                                     ["tui", "--out", "RUN"]])
+def test_a_negative_seed_is_a_one_line_error(tmp_path: Path, capsys, command: list[str]) -> None:
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(STRAIGHTNESS)
+    args = [{"SCENARIO": str(scenario), "RUN": str(tmp_path / "run")}.get(a, a) for a in command]
+    with pytest.raises(SystemExit) as exc:
+        main([*args, "--seed", "-1"])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and err.count("guideway: error:") == 1 and "a seed is a whole number >= 0" in err, err
     assert not (tmp_path / "run").exists()
 
 
@@ -125,6 +158,18 @@ def test_bad_diagnose_input_is_a_one_line_error(tmp_path: Path, capsys) -> None:
     model.write_text('kind = "straightness"\n[[effect]]\ntype = "lever_arm"\nerror_mm = "x"\n')
     code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(model))
     assert code == 2 and "error_mm must be a number" in err
+    code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(model))
+    assert code == 2 and "error_mm must be a number" in err
+    # a model effect the run cannot evaluate (an imported run without times): no silent NaN
+    data = tmp_path / "data.csv"
+    data.write_text("run,direction,target_mm,reading_mm\n" + "".join(
+        f"{r},{d},{p},{p + 1e-4 * (r + d)}\n" for r in (1, 2) for d in (1, -1) for p in (0.0, 250.0, 500.0)))
+    assert run_cli(capsys, "import", "positioning", str(data), "--out", str(tmp_path / "imported"),
+                   "--compensated")[0] == 0
+    model.write_text('kind = "positioning"\n[[effect]]\ntype = "thermal_drift"\nfree = true\n')
+    code, out, err = run_cli(capsys, "diagnose", str(tmp_path / "imported"), "--model", str(model))
+    assert code == 2 and err.count("guideway: error:") == 1 and "thermal_drift cannot be evaluated" in err, (out, err)
+    assert "no time_s recorded" in err and out == ""
     code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "nothing"))
     assert code == 2 and "no such run directory" in err
     code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(tmp_path / "missing.toml"))

@@ -126,6 +126,10 @@ def channel_sections(page: HtmlPage, ch: ChannelDiagnosis) -> None:
                        f"{s.fit.max_um:.4f} µm.")
         page.image(figure_png(residual_figure(o, before, s.fit.residual, f"Step {i}: + {s.test.effect.label}")),
                    f"Residual before (grey) and after adding {s.test.effect.label} (coloured).")
+        if not s.test.significant and s.in_final is not None:
+            page.paragraph(f"Below the rule on its own at this step; significant only with the later steps: in the "
+                           f"final model ΔBIC {s.in_final.delta_bic:.1f}, p {s.in_final.p_value:.2g} (limit "
+                           f"{s.in_final.p_threshold:.2g}).", "note")
         page.table(EVIDENCE_HEADER, _evidence_rows(s.tested), digits=4, text_columns=(0, 7))
         before = s.fit.residual
     page.heading("Candidates after the last step", 3)
@@ -150,10 +154,11 @@ def render_diagnosis(d: Diagnosis) -> str:
         page.paragraph(f"Note: {note}", "note")
     rule = d.primary.rule
     page.paragraph(f"Selection rule (docs/diagnosis.md): a candidate is significant when its F-test p is below "
-                   f"α/K (α = {rule.alpha:g}, K = candidates tested; a searched periodic wavelength corrected for "
-                   f"the wavelengths scanned), it lowers BIC by at least {rule.bic_margin:g} and it lowers the "
-                   "grouped cross-validation RMSE. The best is named unless another candidate explains the same "
-                   "residual as well (then both are reported as ambiguous).", "note")
+                   f"α/(C·K) (α = {rule.alpha:g}, C = {rule.channels} channel(s) of the run, K = candidates of the "
+                   f"channel; a searched periodic wavelength corrected for the wavelengths scanned), it lowers BIC by "
+                   f"at least {rule.bic_margin:g} and it lowers the grouped cross-validation RMSE. The best is "
+                   "named unless another candidate explains the same residual as well (then both are reported as "
+                   "ambiguous); a named effect is significant in the final model, the others in.", "note")
     for ch in d.channels:
         channel_sections(page, ch)
     page.heading("Final model")

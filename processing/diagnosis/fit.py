@@ -150,16 +150,31 @@ class _Scan:
         gain = np.where(ok, (gcc * a * a - 2 * gsc * a * b + gss * b * b) / np.where(ok, det, 1.0), 0.0)
         return self.rss0 - gain
 
-    def best(self, grid: np.ndarray, around: float | None = None) -> float:
-        """The wavelength of least RSS: over ``grid``, or refined near ``around``."""
+    def best(self, grid: np.ndarray, around: float | None = None, avoid: tuple[float, ...] = ()) -> float:
+        """The wavelength of least RSS: over ``grid``, or refined near ``around``; at least one frequency
+        resolution (1 / span) from the wavelengths in ``avoid`` (the model's other periodic effects: two
+        periods the travel cannot tell apart are one period, and a nearly equal pair with huge opposite
+        amplitudes would mimic any P·cos shape)."""
+        span = float(self.pos[-1] - self.pos[0]) or 1.0
+        taken = np.array([1.0 / w for w in avoid])
         if around is None:
-            rss = np.concatenate([self.rss(chunk) for chunk in np.array_split(grid, max(1, len(grid) // 256))])
-            f0 = 1.0 / grid[int(np.argmin(rss))]
+            free = grid[np.all(np.abs(1.0 / grid[:, None] - taken[None, :]) >= 1.0 / span, axis=1)] \
+                if taken.size else grid
+            if free.size == 0:
+                raise ValueError("no wavelength left that the travel can tell apart from the model's periodic effects")
+            rss = np.concatenate([self.rss(chunk) for chunk in np.array_split(free, max(1, len(free) // 256))])
+            f0 = 1.0 / free[int(np.argmin(rss))]
         else:
             f0 = 1.0 / around
-        span = float(self.pos[-1] - self.pos[0]) or 1.0
         df = 1.0 / (OVERSAMPLE * span)
-        lo, hi = max(f0 - df, 0.2 / span), f0 + df
+        lo, hi = max(f0 - df, 1.0 / span), f0 + df  # one full period inside the travel, as the grid
+        for f in taken:  # keep the refinement on f0's side of every other period, a resolution away
+            if f <= f0:
+                lo = max(lo, min(f + 1.0 / span, f0))
+            else:
+                hi = min(hi, max(f - 1.0 / span, f0))
+        if hi - lo <= df * 1e-4:
+            return 1.0 / f0
         res = optimize.minimize_scalar(lambda f: float(self.rss(np.array([1.0 / f]))[0]), bounds=(lo, hi),
                                        method="bounded", options={"xatol": df * 1e-4})
         trial = np.array([f0, float(res.x)])
@@ -197,7 +212,10 @@ def fit_model(obs: Observations, effects: tuple[Effect, ...] | list[Effect], *,
             unknown = {j for j in nonlinear if j not in wl}
             base, _ = _design(effects, obs, wl, skip=unknown | {i})
             scan = _Scan(base, target, obs.values["position_mm"])
-            wl[i] = scan.best(grid, around=wl.get(i))
+            others = tuple(wl[j] for j in nonlinear if j != i and j in wl) + tuple(
+                float(e.params["wavelength_mm"]) for j, e in enumerate(effects)  # type: ignore[arg-type]
+                if j not in nonlinear and e.type == "periodic" and e.params.get("wavelength_mm") is not None)
+            wl[i] = scan.best(grid, around=wl.get(i), avoid=others)
     x, cols = _design(effects, obs, wl)
     coef, rss, rank = solve(x, target)
     fitted = list(effects)

@@ -27,6 +27,7 @@ the model is).
 from __future__ import annotations
 
 import math
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -48,13 +49,17 @@ class Rule:
     bic_margin: float = 10.0
     max_steps: int = 8
     region_alpha: float = 0.05
+    # a residual RMS below this holds nothing to diagnose: no interferometer resolves 0.1 nm, and the
+    # rounding of a noise-free simulation (--no-noise) would otherwise pass every test
+    resolution_um: float = 1e-4
 
     def to_dict(self) -> dict[str, Any]:
         return {"alpha_per_step": self.alpha, "channels": self.channels,
                 "bonferroni": "alpha / (channels x candidates of the channel)",
                 "bic_decrease_min": self.bic_margin, "cv": "grouped cross-validation RMSE must decrease",
                 "ambiguity": f"another significant candidate within {self.bic_margin:g} of the best BIC that "
-                             "adds nothing significant after it", "max_steps": self.max_steps}
+                             "adds nothing significant after it", "max_steps": self.max_steps,
+                "resolution_um": self.resolution_um}
 
 
 # -- noise --------------------------------------------------------------------------------------------------
@@ -248,7 +253,7 @@ def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int,
     threshold = rule.alpha / (max(k_tested, 1) * max(rule.channels, 1))
     before = current_folds or fold_fits(current.design, current.target, obs.folds)
     cv_before, cv_after = cv_rmse([before, fold_fits(fit.design, fit.target, obs.folds)])
-    significant = (p < threshold and dbic <= -rule.bic_margin
+    significant = (p < threshold and dbic <= -rule.bic_margin and current.rms_um > rule.resolution_um
                    and (cv_before is None or cv_after is None or cv_after < cv_before))
     return CandidateTest(fit.effects[-1], fit, added_total, dbic, f_stat, p, threshold, cv_before, cv_after,
                          significant, m_eff)
@@ -264,6 +269,9 @@ class Step:
     noise: Noise
     tested: tuple[CandidateTest, ...]
     ambiguous_with: tuple[str, ...] = ()
+    # the effect tested again in the final model, the others in (what the backward pass keeps it on):
+    # a step can be below the rule on its own when effects are significant only together
+    in_final: CandidateTest | None = None
 
     @property
     def effect(self) -> Effect:
@@ -303,6 +311,11 @@ def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect]
     """
     rule = rule or Rule()
     model = tuple(model)
+    for e in model:
+        missing = [k for k in basis.needs(e.type, e.variant) if not obs.has(k)]
+        if missing:
+            raise ValueError(f"the model's {e.label} cannot be evaluated on this run "
+                             f"({NEEDS_TEXT.get(missing[0], f'{missing[0]} not recorded')}); take it out of the model")
     baseline = fit_model(obs, model)
     base_noise = noise_estimate(obs, baseline)
     regions = disagreement(obs, baseline.residual, base_noise.sigma_um, rule.region_alpha)
@@ -311,20 +324,23 @@ def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect]
     final = steps[-1].fit if steps else baseline
     refined = _backward(obs, final, len(model), rule)
     if refined is not None:
-        chosen = {e.label for e in refined.effects[len(model):]}
+        chosen = Counter(e.label for e in refined.effects[len(model):])  # two periodic effects count twice
         steps, last = _forward(obs, baseline, rule, not_testable, allowed=chosen)
         final = steps[-1].fit if steps else baseline
     ambiguous: list[tuple[str, ...]] = []
     alike_of: dict[int, tuple[str, ...]] = {}
+    in_final: dict[int, CandidateTest] = {}
     for j, effect in enumerate(final.effects):
         if effect.free:
-            alike = _indistinguishable(obs, final, j, rule)
+            alike, own = _indistinguishable(obs, final, j, rule)
+            if own is not None:
+                in_final[j] = own
             if alike:
                 alike_of[j] = tuple(a.label for a in alike)
                 group = tuple(sorted({effect.type, *(a.type for a in alike)}))
                 if group not in ambiguous:
                     ambiguous.append(group)
-    told = [Step(s.test, s.fit, s.noise, s.tested, alike_of.get(len(model) + i, ()))
+    told = [Step(s.test, s.fit, s.noise, s.tested, alike_of.get(len(model) + i, ()), in_final.get(len(model) + i))
             for i, s in enumerate(steps)]
     return ChannelDiagnosis(obs, model, baseline, base_noise, tuple(told), final, noise_estimate(obs, final),
                             regions, tuple(ambiguous), not_testable, last, rule)
@@ -364,29 +380,32 @@ def _pick(tests: list[CandidateTest]) -> CandidateTest | None:
 
 
 def _forward(obs: Observations, start: Fit, rule: Rule, not_testable: dict[str, str],
-             allowed: set[str] | None = None) -> tuple[list[Step], tuple[CandidateTest, ...]]:
-    """Add the best significant candidate until none is left (only those in ``allowed``, best first, when
-    given: the steps told again after the backward pass)."""
+             allowed: Counter[str] | None = None) -> tuple[list[Step], tuple[CandidateTest, ...]]:
+    """Add the best significant candidate until none is left; with ``allowed`` (the steps told again after
+    the backward pass) those first, best first, then any other significant one: the loop ends only when
+    nothing significant is left (or after ``rule.max_steps`` steps beyond the ones told again)."""
     steps: list[Step] = []
     current = start
     tested: list[CandidateTest] = []
-    for _ in range(rule.max_steps if allowed is None else len(allowed)):
-        if allowed is None:
-            tested = _round(obs, current, rule, not_testable)
-            best = _pick(tested)
-        else:
-            done = {e.label for e in current.effects[len(start.effects):]}
-            left = allowed - done
+    told = Counter() if allowed is None else allowed
+    for _ in range(rule.max_steps + told.total()):
+        left = told - Counter(e.label for e in current.effects[len(start.effects):])
+        if left:
             tested = _round(obs, current, rule, not_testable, catch_all=any(lb in CATCH_ALL for lb in left))
             pool = [t for t in tested if t.effect.label in left]
-            best = next((t for t in pool if t.effect.type not in CATCH_ALL), pool[0] if pool else None)
-        if best is None:
-            break
+            # the significant ones first: each step's evidence is then that of a step the rule takes
+            best = _pick(pool) or next((t for t in pool if t.effect.type not in CATCH_ALL), pool[0] if pool else None)
+            if best is None:  # cannot be told again (no longer testable here): carry on with the rule
+                told = Counter()
+                continue
+        else:
+            tested = _round(obs, current, rule, not_testable)
+            best = _pick(tested)
+            if best is None:
+                break
         assert best.fit is not None
         current = fit_model(obs, best.fit.effects)  # all wavelengths refined, standard errors
         steps.append(Step(best, current, noise_estimate(obs, current), tuple(tested)))
-    if allowed is not None:
-        tested = _round(obs, current, rule, not_testable)
     return steps, tuple(tested)
 
 
@@ -418,16 +437,18 @@ def _backward(obs: Observations, final: Fit, n_model: int, rule: Rule) -> Fit | 
     return current
 
 
-def _indistinguishable(obs: Observations, final: Fit, j: int, rule: Rule) -> list[Effect]:
+def _indistinguishable(obs: Observations, final: Fit, j: int, rule: Rule
+                       ) -> tuple[list[Effect], CandidateTest | None]:
     """Candidates that, in place of the ``j``-th effect of the final model, are significant and come within
-    the BIC margin of it, and add nothing significant once it is in the model.  A candidate that strictly
+    the BIC margin of it, and add nothing significant once it is in the model; and the effect's own test
+    there (None when it cannot be tested in its place).  A candidate that strictly
     contains the effect (a free table around a linear scale) is not an alternative: parsimony prefers the
     effect; the reverse (a linear scale inside a free table of the model) is ambiguous."""
     reduced = _without(obs, final, j)
     tests = _round(obs, reduced, rule, {}, catch_all=final.effects[j].type in CATCH_ALL)
     own = next((t for t in tests if t.effect.label == final.effects[j].label), None)
     if own is None:
-        return []
+        return [], None
     k = len(candidate_effects(obs, reduced.effects)[0])
     mine = basis.columns(final.effects[j], obs).matrix
     out = []
@@ -441,7 +462,7 @@ def _indistinguishable(obs: Observations, final: Fit, j: int, rule: Rule) -> lis
         again = test_candidate(obs, final, fresh, k, rule)
         if again is None or not again.significant:
             out.append(other.effect)
-    return out
+    return out, own
 
 
 def _zeroed(e: Effect) -> dict[str, Any]:

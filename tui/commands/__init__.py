@@ -7,6 +7,7 @@ Handlers import what they need lazily, so ``guideway --help`` stays fast.
 
 from __future__ import annotations
 
+import argparse
 from importlib import import_module
 
 # Order = order in ``guideway --help``.
@@ -39,3 +40,14 @@ def register_all(subparsers, only: str | None = None) -> None:  # noqa: ANN001 -
     names = [module] if module in COMMAND_MODULES else COMMAND_MODULES
     for name in names:
         import_module(f"{__name__}.{name}").register(subparsers)
+
+
+def seed(text: str) -> int:
+    """``--seed``: a whole number >= 0 (the simulated world's random generators take no negative seed)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a seed is a whole number >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"a seed is a whole number >= 0, got {text!r}")
+    return value

@@ -15,6 +15,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from . import seed as seed_arg
+
 KINDS = ("straightness", "positioning")
 
 
@@ -69,7 +71,7 @@ def register(sub) -> None:  # noqa: ANN001
     a.add_argument("--auto", action="store_true", help="automatic operator (simulated technician)")
     a.add_argument("--resume", nargs="?", type=Path, const=True, default=None, metavar="RUN_DIR",
                    help="continue the interrupted run in RUN_DIR (or in --out)")
-    a.add_argument("--seed", type=int, default=0, help="--simulate: seed of the simulated world (default 0)")
+    a.add_argument("--seed", type=seed_arg, default=0, help="--simulate: seed of the simulated world (default 0)")
     a.add_argument("--no-noise", action="store_true", help="--simulate: switch the instrument noise off")
     a.add_argument("--faults", default=None, metavar="SPEC",
                    help="--simulate: inject device faults (DEVICE:KIND@N[xCOUNT][=ARG]), e.g. sensor:drop@9x1")

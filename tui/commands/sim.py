@@ -21,6 +21,8 @@ import tempfile
 import threading
 from pathlib import Path
 
+from . import seed as seed_arg
+
 
 def _read_commands(rig, out_lock: threading.Lock) -> None:  # noqa: ANN001 - SimulatedRig, imported lazily
     for line in sys.stdin:
@@ -87,6 +89,6 @@ def register(sub) -> None:  # noqa: ANN001
     p.add_argument("--faults", default=None, metavar="SPEC",
                    help="inject device faults, e.g. sensor:close@20x1 or controller:slow@1=2.5 "
                         "(DEVICE:KIND@N[xCOUNT][=ARG], docs/faults.md)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the simulated world (default 0)")
+    p.add_argument("--seed", type=seed_arg, default=0, help="seed of the simulated world (default 0)")
     p.add_argument("--no-noise", action="store_true", help="switch the simulated instrument noise off")
     p.set_defaults(func=serve)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from . import seed as seed_arg
+
 
 def run(args: argparse.Namespace) -> int:
     from acquisition.simulate import simulate_run
@@ -22,6 +24,6 @@ def register(sub) -> None:  # noqa: ANN001
                                    "of a measured run.")
     p.add_argument("scenario", type=Path, help="scenario file (TOML)")
     p.add_argument("--out", type=Path, required=True, help="run directory to write (new or empty)")
-    p.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's seed, else 0)")
+    p.add_argument("--seed", type=seed_arg, default=None, help="noise seed (default: the scenario's seed, else 0)")
     p.add_argument("--no-noise", action="store_true", help="switch the simulated noise off")
     p.set_defaults(func=run)

@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from . import seed as seed_arg
+
 
 def run(args: argparse.Namespace) -> int:
     from acquisition.errors import SetupError
@@ -39,7 +41,7 @@ def register(sub) -> None:  # noqa: ANN001
     t.add_argument("--setup", type=Path, default=None, help="open with this set-up file (TOML) loaded")
     t.add_argument("--out", type=Path, default=None, help="run directory of the next run (default RUNS/KIND-<time>)")
     t.add_argument("--runs", type=Path, default=Path("runs"), help="folder the run browser lists (default runs/)")
-    t.add_argument("--seed", type=int, default=0, help="--simulate: seed of the simulated world (default 0)")
+    t.add_argument("--seed", type=seed_arg, default=0, help="--simulate: seed of the simulated world (default 0)")
     t.add_argument("--no-noise", action="store_true", help="--simulate: switch the instrument noise off")
     t.add_argument("--faults", default=None, metavar="SPEC",
                    help="--simulate: inject device faults (DEVICE:KIND@N[xCOUNT][=ARG], docs/faults.md)")
