@@ -62,8 +62,15 @@ def test_controller_error_is_shown_as_a_reading_and_is_not_a_pass(sim_rig, capsy
     assert code == 3, err  # the device answered, but reports an error: exit 3, not 0
     assert lines[1].startswith(f"#1 controller: device error: controller {sim_rig.controller_url}: device reported "
                                "error 1 to 'trigger': beam interrupted")
-    assert "error" in lines[2] and "beam-ok" not in lines[2]
+    assert "error" in lines[2] and "beam-ok" not in lines[2] and "latched" not in lines[2]
     assert err.strip() == "guideway: 1 reading(s) with a device error: not a pass (exit 3)"
+    # the beam is back, the error stays latched (docs/modbus-map.md): still not a pass, and the line says
+    # why the controller reports an error with its beam OK, and that a run clears it
+    sim_rig.world.beam_blocked = False
+    code, lines, err = probe(capsys, "--controller", sim_rig.controller_url, "--count", "1")
+    assert code == 3, err
+    assert "[ready error beam-ok]" in lines[2] and "error 1: beam interrupted" in lines[2]
+    assert lines[2].endswith("(latched: the beam is OK again; a run clears the error itself, command 5)")
 
 
 def test_sensor_answering_garbage_exits_2_one_line() -> None:
