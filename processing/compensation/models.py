@@ -172,10 +172,12 @@ def fit_adaptive_spline(
        knots).
     3. Every measured point whose |residual| exceeds ``tolerance`` becomes a knot (batch
        insertion, as in seed 003: "the error data points whose residual exceeds the allowed
-       residual are added as new knots"); repeat from 2 until all |residual| ≤ ``tolerance``.
+       residual are added as new knots"); repeat from 2 until all |residual| ≤ ``tolerance``
+       at the points that are not knots (a knot's residual is zero but for rounding).
 
     ``tolerance`` is in the unit of ``e`` (default max|e|/20).  Terminates: each pass adds at
-    least one knot, and with every point a knot the residual is zero.
+    least one knot, and with every point a knot none is left to add (``tolerance = 0``: the
+    spline through every point).
     """
     x, e = _check_xy(x, e)
     tol = default_threshold(e) if tolerance is None else float(tolerance)
@@ -195,7 +197,7 @@ def fit_adaptive_spline(
         iterations += 1
         spline = _natural_spline(x, e, knots)
         r = np.abs(e - spline(x))
-        over = np.flatnonzero(r > tol)
+        over = np.flatnonzero((r > tol) & ~is_knot)  # a knot's rounding residual would add nothing, forever
         if over.size == 0:
             break
         is_knot[over] = True

@@ -217,3 +217,16 @@ def test_segment_values_are_the_least_squares_polyline() -> None:
     basis = np.stack([np.interp(x, nodes, np.eye(len(nodes))[j]) for j in range(len(nodes))], axis=1)
     expected = np.linalg.lstsq(basis, e, rcond=None)[0]
     np.testing.assert_allclose(model.node_values, expected, rtol=0, atol=1e-11)
+
+
+@pytest.mark.timeout(20)
+def test_spline_with_zero_tolerance_ends_with_every_point_a_knot() -> None:
+    # a spline evaluated at its own last knot is off by rounding (~1e-16): with tolerance 0 that
+    # point was "over" the tolerance, re-added as a knot it already was, and the fit never ended
+    # (guideway export --tolerance 0 hung)
+    rng = np.random.default_rng(1)
+    x = np.unique(rng.uniform(0, 1000, 40))
+    e = rng.normal(0, 3, len(x))
+    model = fit_adaptive_spline(x, e, tolerance=0.0)
+    assert list(model.knots) == list(range(len(x)))
+    np.testing.assert_allclose(model(x), natural_cubic_spline(x, e, x), rtol=0, atol=1e-9)
