@@ -98,7 +98,12 @@ def test_sensor_that_hangs_up_exits_2() -> None:
      (("--controller", "modbus-tcp://127.0.0.1:{port}"),
       "cannot connect to controller at modbus-tcp://127.0.0.1:{port}: no Modbus answer from 127.0.0.1:{port} "
       "within 1.0 s / connection refused; check the controller address"),
-     (("--controller", "http://x"), "must start with modbus-tcp://")],
+     (("--controller", "http://x"), "must start with modbus-tcp://"),
+     # an explicit 0 was taken as "not given" and the default used
+     (("--controller", "modbus-tcp://127.0.0.1:{port}", "--request-timeout", "0"),
+      "--request-timeout must be a positive number of seconds, got 0.0"),
+     (("--controller", "modbus-tcp://127.0.0.1:{port}", "--trigger-timeout", "0"),
+      "--trigger-timeout must be a positive number of seconds, got 0.0")],
 )
 def test_bad_or_unreachable_devices_exit_2(refused_port: int, args,
                                            fragment: str) -> None:
