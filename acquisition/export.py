@@ -11,6 +11,7 @@ measured point; without them it can only use the means and says so.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -69,6 +70,16 @@ class ExportOptions:
     siemens_encoder: int = 0
     siemens_modulo: bool = False
     siemens_max_points: int | None = None
+
+    def __post_init__(self) -> None:
+        # checked here, not where a model is fitted: there a bad value only drops that model from
+        # the comparison ("not fitted"), and the command went on with exit 0
+        if self.tolerance is not None and not (math.isfinite(self.tolerance) and self.tolerance >= 0):
+            raise UserError(f"--tolerance must be a number >= 0 (um or arcsec), got {self.tolerance:g}")
+        if self.initial_maxima is not None and self.initial_maxima < 0:
+            raise UserError(f"--initial-knots must be >= 0, got {self.initial_maxima}")
+        if self.degree < 0:
+            raise UserError(f"--degree must be >= 0, got {self.degree}")
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,12 @@ Limits (docs/setup-*.toml, the same as the checks on every capture):
 
 * straightness: ``[validation]`` sensor_range_mm (sensor_mm), max_straightness_um (|stry_um|,
   |strz_um|), max_angle_urad (|pitch|, |yaw|, |roll|), max_lin_um (|lin_um|);
-* positioning: ``max_deviation_mm`` / ``max_deviation_deg`` (|reading − target|).
+* positioning: ``max_deviation_mm`` / ``max_deviation_deg`` (|reading − target|); on a linear
+  axis whose readings are environment-compensated also the values the compensation uses, within
+  the range of the air-index equations (:data:`acquisition.air.RANGES`, as ``guideway air-index``
+  checks them): air temperature, pressure, humidity, and the material temperature when
+  ``expansion_ppm_per_k`` is set (within the same temperature range).  A humidity of 1e9 %RH
+  would otherwise move every deviation by metres.
 
 Run files without the keys take the set-up defaults.  NaN and inf are not "outside" (the
 evaluators report a value that is not finite on their own, where the method needs it).
@@ -25,8 +30,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from processing.environment import angular_deviation_deg
+from processing.environment import EnvironmentSettings, angular_deviation_deg
 
+from .air import RANGES as AIR_INDEX_RANGES
 from .errors import RunFormatError, SetupError
 from .runstore import LoadedRun
 from .setup import ValidationSetup
@@ -44,12 +50,15 @@ class OutOfRange:
     column: str
     value: float
     limit: str
+    of_setup: bool = True  # a limit of the set-up (else one of the equations, named in ``limit``)
 
     def text(self) -> str:
         return f"{self.where}: {self.column} = {self.value:.6g} outside {self.limit}"
 
     def to_dict(self) -> dict[str, Any]:
-        return {**asdict(self), "value": self.value if math.isfinite(self.value) else None}
+        d = {**asdict(self), "value": self.value if math.isfinite(self.value) else None}
+        del d["of_setup"]
+        return d
 
 
 def straightness_bounds(v: ValidationSetup) -> dict[str, tuple[float, float, str]]:
@@ -90,6 +99,25 @@ def straightness_out_of_range(run: LoadedRun) -> list[OutOfRange]:
     return found
 
 
+def environment_bounds(setup: dict[str, Any]) -> dict[str, tuple[float, float, str, str]]:
+    """Column → (low, high, unit, whose range) of the environment values a linear positioning
+    run's compensation uses (nothing when its readings are used as recorded)."""
+    try:
+        settings = EnvironmentSettings.from_dict(setup.get("environment"))
+    except ValueError:
+        return {}  # the evaluation refuses the set-up itself, with its own message
+    if settings.readings_compensated:
+        return {}
+    ranges = {flag: (lo, hi) for flag, lo, hi in AIR_INDEX_RANGES}
+    (t_lo, t_hi), (p_lo, p_hi), (rh_lo, rh_hi) = ranges["--t-c"], ranges["--p-pa"], ranges["--rh"]
+    equations = "the range of the air-index equations"
+    out = {"air_temp_c": (t_lo, t_hi, "C", equations), "air_pressure_hpa": (p_lo / 100, p_hi / 100, "hPa", equations),
+           "humidity_pct": (rh_lo, rh_hi, "%RH", equations)}
+    if settings.expansion_ppm_per_k is not None:
+        out["material_temp_c"] = (t_lo, t_hi, "C", "the temperature range the tool evaluates")
+    return out
+
+
 def positioning_out_of_range(run: LoadedRun) -> list[OutOfRange]:
     axis_type = run.meta.get("axis_type", "linear")
     u = "deg" if axis_type == "rotary" else "mm"
@@ -108,6 +136,17 @@ def positioning_out_of_range(run: LoadedRun) -> list[OutOfRange]:
                  f"{ARROW.get(int(row['direction']), '?')}")
         found.append(OutOfRange(where, f"reading_{u}", float(reading[i]),
                                 f"+/-{float(limit):g} {u} of its target (max_deviation_{u})"))
+    if axis_type != "rotary":
+        for col, (lo, hi, unit, whose) in environment_bounds(setup).items():
+            if col not in pts:
+                continue
+            values = pts[col].to_numpy(dtype=float)
+            for i in _outside(values, lo, hi):
+                row = pts.iloc[int(i)]
+                where = (f"target {int(row['target_index'])} ({target[i]:g} {u}), run {int(row['run'])} "
+                         f"{ARROW.get(int(row['direction']), '?')}")
+                found.append(OutOfRange(where, col, float(values[i]),
+                                        f"[{lo:g}, {hi:g}] {unit}, {whose}", of_setup=False))
     return found
 
 
@@ -117,7 +156,8 @@ def out_of_range(run: LoadedRun, *, accept: bool = False) -> tuple[OutOfRange, .
     found = straightness_out_of_range(run) if run.kind == "straightness" else positioning_out_of_range(run)
     if found and not accept:
         more = f" ({len(found)} values out of range)" if len(found) > 1 else ""
-        raise RunFormatError(f"{run.path}/points.csv: {found[0].text()}{more}, the set-up's validation limit; "
+        whose = ", the set-up's validation limit" if found[0].of_setup else ""
+        raise RunFormatError(f"{run.path}/points.csv: {found[0].text()}{more}{whose}; "
                              "redo that point or fix the value, or pass --accept-out-of-range to evaluate as it is")
     return tuple(found)
 

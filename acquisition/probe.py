@@ -73,6 +73,8 @@ def status_flags(st: ControllerStatus) -> str:
     line = f"status 0x{st.raw_status:04x} [{set_flags(st)}] sequence {st.sequence}"
     if st.error or st.error_code:
         line += f" error {st.error_code}: {st.error_text or 'unknown error'}"
+    if st.error and st.beam_ok:  # the cause is gone, the flag is not: say so, or the beam looks still broken
+        line += " (latched: the beam is OK again; a run clears the error itself, command 5)"
     return line
 
 

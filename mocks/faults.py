@@ -45,9 +45,12 @@ See ``docs/faults.md``.
 
 from __future__ import annotations
 
+import math
 import re
 import threading
 from dataclasses import dataclass
+
+from pymodbus.constants import ExcCodes
 
 # Port-level kinds are carried out by the endpoint, not by the emulator.
 PORT_KINDS = frozenset({"close"})
@@ -57,6 +60,8 @@ KINDS = {
 }
 # Kinds that are an event rather than a state: without xCOUNT they last this many requests.
 DEFAULT_COUNT = {"beam-loss": 1}
+# What ARG is, for the kinds that take one (the others take none).
+SECONDS_ARG = frozenset({"delay", "slow"})
 _SPEC = re.compile(r"^(?P<dev>[a-z]+):(?P<kind>[a-z-]+)@(?P<at>\d+)(?:x(?P<count>\d+))?(?:=(?P<arg>[^,]+))?$")
 
 
@@ -79,6 +84,32 @@ class Fault:
 
 class FaultSpecError(ValueError):
     """A fault spec that cannot be parsed."""
+
+
+def _check_arg(part: str, kind: str, arg: str | None) -> None:
+    """ARG as the emulators read it: seconds (``delay``, ``slow``), a Modbus exception code
+    (``exception``), the device's error code (``error``), none for the other kinds.  Checked
+    here, or a bad one only shows when the fault fires, as the emulator failing (a Modbus
+    'server device failure')."""
+    if arg is None:
+        return
+    if kind in SECONDS_ARG:
+        try:
+            seconds = float(arg)
+        except ValueError:
+            seconds = float("nan")
+        if not (math.isfinite(seconds) and seconds >= 0):
+            raise FaultSpecError(f"fault {part!r}: ARG must be a number of seconds >= 0, got {arg!r}")
+    elif kind == "exception":
+        codes = sorted(int(c) for c in ExcCodes)
+        if not (arg.isdigit() and int(arg) in codes):
+            raise FaultSpecError(f"fault {part!r}: ARG must be a Modbus exception code "
+                                 f"({', '.join(map(str, codes))}), got {arg!r}")
+    elif kind == "error":
+        if not arg.isdigit():
+            raise FaultSpecError(f"fault {part!r}: ARG must be the device's error code, a whole number, got {arg!r}")
+    else:
+        raise FaultSpecError(f"fault {part!r}: {kind} takes no ARG (=...)")
 
 
 class FaultPlan:
@@ -109,6 +140,9 @@ class FaultPlan:
             if at < 1:
                 raise FaultSpecError(f"fault {part!r}: N counts requests from 1")
             count = int(m["count"]) if m["count"] else DEFAULT_COUNT.get(kind)
+            if count == 0:
+                raise FaultSpecError(f"fault {part!r}: xCOUNT must be at least 1 (a fault of 0 requests never fires)")
+            _check_arg(part, kind, m["arg"])
             faults.append(Fault(dev, kind, at, count, m["arg"]))
         return cls(tuple(faults))
 

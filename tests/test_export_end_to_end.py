@@ -12,6 +12,7 @@ import pytest
 
 from acquisition.export import ExportOptions, export_run
 from processing.columns import POSITIONING_LINEAR
+from tests.cli import guideway, one_line_error
 from tests.controller_parsers import read_fanuc, read_linuxcnc_comp, read_siemens_lec
 from tui.cli import main
 
@@ -99,3 +100,27 @@ def test_siemens_and_fanuc_files(run_dir: Path, tmp_path: Path) -> None:
     grid = np.arange(0.0, 401.0, 100.0)
     e_up = np.interp(grid, TARGETS_MM, ERR_UP_UM)
     np.testing.assert_allclose(e_up + f.correction_um(grid, 0.0, +1, 1.0), 0.0, atol=0.5)
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (("--tolerance", "-1"), "--tolerance must be a number >= 0 (um or arcsec), got -1"),
+    (("--tolerance", "nan"), "--tolerance must be a number >= 0 (um or arcsec), got nan"),
+    (("--initial-knots", "-1"), "--initial-knots must be >= 0, got -1"),
+    (("--degree", "-2"), "--degree must be >= 0, got -2"),
+])
+def test_bad_model_options_are_one_line_errors(run_dir: Path, tmp_path: Path, args: tuple[str, ...],
+                                               message: str) -> None:
+    # they used to drop that model from the comparison ("not fitted") and exit 0, also when the table's
+    # own model was another one
+    res = guideway("export", run_dir, "--format", "csv", "--out", tmp_path / "t.csv", *args)
+    one_line_error(res, message)
+    assert not (tmp_path / "t.csv").exists()
+
+
+def test_zero_tolerance_is_the_spline_through_every_target(run_dir: Path, tmp_path: Path) -> None:
+    # --tolerance 0 hung (the spline's rounding at its last knot kept "adding" that knot)
+    res = guideway("export", run_dir, "--format", "csv", "--model", "spline", "--tolerance", "0",
+                   "--out", tmp_path / "t.csv", "--json")
+    assert res.returncode == 0, res.stderr
+    spline = next(r for r in json.loads(res.stdout)["comparison"] if r["model"] == "spline")
+    assert spline["table_points"] == len(TARGETS_MM) and spline["E_um"] == pytest.approx(0.0, abs=1e-9)

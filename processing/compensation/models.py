@@ -22,8 +22,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline, make_lsq_spline
-from scipy.signal import argrelextrema
+from scipy.interpolate import CubicSpline
+from scipy.linalg import get_lapack_funcs
 
 MODEL_NAMES = ("linear", "spline", "segments", "polynomial")
 DEFAULT_POLYNOMIAL_DEGREE = 6  # seed 003 compares against a 6th-order polynomial
@@ -116,15 +116,44 @@ def curvature_maxima(e: np.ndarray) -> np.ndarray:
     """
     e = np.asarray(e, dtype=float)
     k = curvature(np.arange(len(e), dtype=float), e)
-    (idx,) = argrelextrema(k, np.greater)
+    idx = np.flatnonzero((k[1:-1] > k[:-2]) & (k[1:-1] > k[2:])) + 1
     order = np.lexsort((idx, -k[idx]))
     return idx[order]
 
 
+_GTSV = get_lapack_funcs("gtsv", (np.zeros(1),))
+
+
 def _natural_spline(x: np.ndarray, e: np.ndarray, knots: np.ndarray) -> CubicSpline:
+    """The natural cubic spline through (x, e) at ``knots`` (indices, ascending), as
+    ``CubicSpline(x[knots], e[knots], bc_type="natural")``.
+
+    For three knots or more the spline is built without CubicSpline's input checks and
+    dispatch (x is already checked by the caller; this is most of the time of a fit, which
+    cross-validation repeats hundreds of times): the same tridiagonal system for the knot
+    slopes, the same LAPACK solver (gtsv) and the same Hermite coefficients, term for term,
+    so the result is identical to the bit (tests/processing/test_compensation_models.py)."""
     if len(knots) == 2:  # a natural spline through two points is their straight line
         return CubicSpline(x[knots], e[knots], bc_type="not-a-knot")
-    return CubicSpline(x[knots], e[knots], bc_type="natural")
+    xk, yk = x[knots], e[knots]
+    dx = np.diff(xk)
+    slope = np.diff(yk) / dx
+    # rows 1 .. n-2: dx[i] s[i-1] + 2 (dx[i-1] + dx[i]) s[i] + dx[i-1] s[i+1] = 3 (dx[i] g[i-1] + dx[i-1] g[i]);
+    # natural ends (S'' = 0): 2 dx[0] s[0] + dx[0] s[1] = 3 (y[1] - y[0]), likewise at the end
+    diag = np.empty(len(xk))
+    diag[1:-1] = 2 * (dx[:-1] + dx[1:])
+    diag[0], diag[-1] = 2 * dx[0], 2 * dx[-1]
+    upper = np.concatenate((dx[:1], dx[:-1]))
+    lower = np.concatenate((dx[1:], dx[-1:]))
+    rhs = np.empty(len(xk))
+    rhs[1:-1] = 3 * (dx[1:] * slope[:-1] + dx[:-1] * slope[1:])
+    rhs[0], rhs[-1] = 3 * (yk[1] - yk[0]), 3 * (yk[-1] - yk[-2])
+    _, _, _, s, info = _GTSV(lower, diag, upper, rhs, True, True, True, True)
+    if info != 0:  # pragma: no cover - the system is diagonally dominant for increasing knots
+        return CubicSpline(xk, yk, bc_type="natural")
+    t = (s[:-1] + s[1:] - 2 * slope) / dx
+    c = np.stack((t / dx, (slope - s[:-1]) / dx - t, s[:-1], yk[:-1]))
+    return CubicSpline.construct_fast(c, xk, extrapolate=True)
 
 
 def fit_adaptive_spline(
@@ -143,10 +172,12 @@ def fit_adaptive_spline(
        knots).
     3. Every measured point whose |residual| exceeds ``tolerance`` becomes a knot (batch
        insertion, as in seed 003: "the error data points whose residual exceeds the allowed
-       residual are added as new knots"); repeat from 2 until all |residual| ≤ ``tolerance``.
+       residual are added as new knots"); repeat from 2 until all |residual| ≤ ``tolerance``
+       at the points that are not knots (a knot's residual is zero but for rounding).
 
     ``tolerance`` is in the unit of ``e`` (default max|e|/20).  Terminates: each pass adds at
-    least one knot, and with every point a knot the residual is zero.
+    least one knot, and with every point a knot none is left to add (``tolerance = 0``: the
+    spline through every point).
     """
     x, e = _check_xy(x, e)
     tol = default_threshold(e) if tolerance is None else float(tolerance)
@@ -157,16 +188,20 @@ def fit_adaptive_spline(
         if initial_maxima < 0:
             raise ValueError("number of initial curvature maxima must be >= 0")
         maxima = maxima[:initial_maxima]
-    knots = np.unique(np.concatenate(([0, len(x) - 1], maxima)).astype(int))
+    is_knot = np.zeros(len(x), dtype=bool)
+    is_knot[[0, len(x) - 1]] = True
+    is_knot[maxima] = True
+    knots = np.flatnonzero(is_knot)
     iterations = 0
     while True:
         iterations += 1
         spline = _natural_spline(x, e, knots)
         r = np.abs(e - spline(x))
-        over = np.flatnonzero(r > tol)
+        over = np.flatnonzero((r > tol) & ~is_knot)  # a knot's rounding residual would add nothing, forever
         if over.size == 0:
             break
-        knots = np.union1d(knots, over)
+        is_knot[over] = True
+        knots = np.flatnonzero(is_knot)
     return SplineModel("spline", x, e, x.copy(), knots, tol, iterations, spline)
 
 
@@ -287,9 +322,30 @@ def fit_segments(x: np.ndarray, e: np.ndarray, *, threshold: float | None = None
     i = _one_point_less(hint, x, e) if hint is not None and hint.threshold == tau else None
     bps = segment_breakpoints(x, e, tau) if i is None else _breakpoints_without(hint, x, e, i, tau)  # type: ignore[arg-type]
     nodes = x[bps]
-    t = np.concatenate(([nodes[0]], nodes, [nodes[-1]]))
-    values = make_lsq_spline(x, e, t, k=1)(nodes)
-    return SegmentModel("segments", x, e, nodes, bps, tau, np.asarray(values, dtype=float))
+    return SegmentModel("segments", x, e, nodes, bps, tau, _lsq_polyline(x, e, nodes))
+
+
+def _lsq_polyline(x: np.ndarray, e: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """Values at ``nodes`` (ascending data positions, the first and the last of ``x`` among
+    them) of the continuous polyline closest to (x, e) in the least-squares sense: the linear
+    least-squares spline on the hat functions B_j of the nodes.
+
+    A point in [t_s, t_s+1] has B_s = 1 − w, B_s+1 = w (w its fraction of the interval), so the
+    normal equations are tridiagonal: Σ B_s², Σ B_s B_s+1 and Σ B_s e summed per interval.  A
+    point at every node keeps them well conditioned (each diagonal term ≥ 1).  The same values
+    as scipy's make_lsq_spline(k=1) to rounding, in a fraction of its time (cross-validation
+    refits this hundreds of times; tests/processing/test_compensation_models.py)."""
+    n = len(nodes)
+    s = np.clip(np.searchsorted(nodes, x, side="right") - 1, 0, n - 2)
+    w = (x - nodes[s]) / (nodes[s + 1] - nodes[s])
+    v = 1.0 - w
+    diag = np.bincount(s, v * v, n) + np.bincount(s + 1, w * w, n)
+    off = np.bincount(s, v * w, n - 1)
+    rhs = np.bincount(s, v * e, n) + np.bincount(s + 1, w * e, n)
+    _, _, _, values, info = _GTSV(off, diag, off.copy(), rhs, False, True, False, True)
+    if info != 0:  # pragma: no cover - a hat with a point at its node has a positive diagonal
+        raise ValueError("the segment nodes do not determine a least-squares polyline")
+    return values
 
 
 @dataclass(frozen=True)

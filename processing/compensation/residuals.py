@@ -38,15 +38,6 @@ class ResidualStats:
         return cls(float(np.max(np.abs(r))), float(np.max(r) - np.min(r)), float(np.sqrt(np.mean(r**2))))
 
 
-def compensated_errors(d: DirectionalData, table: ErrorTable) -> tuple[np.ndarray, np.ndarray]:
-    """(residual↑, residual↓) at the measured points of ``d`` after applying ``table`` with the
-    ideal correction −e_model (backlash folded in, as the controller's backlash compensation
-    does)."""
-    e_up, e_dn = table.directional()
-    return (d.e_up - interpolate_table(d.x_up, table.position, e_up),
-            d.e_down - interpolate_table(d.x_down, table.position, e_dn))
-
-
 @dataclass(frozen=True)
 class MeasuredPoints:
     """Every measured deviation of a run: commanded position (mm or deg), direction of travel

@@ -33,10 +33,6 @@ class DirectionalData:
     x_down: np.ndarray
     e_down: np.ndarray
 
-    @property
-    def x_all(self) -> np.ndarray:
-        return np.concatenate((self.x_up, self.x_down))
-
 
 def split_directions(target: np.ndarray, mean_up: np.ndarray, mean_down: np.ndarray) -> DirectionalData:
     """Drop NaN means per direction; a direction with no measured point takes the other one
@@ -161,18 +157,6 @@ def floor_to(value: float, resolution: float) -> float:
     if not resolution > 0:
         raise ValueError("resolution must be positive")
     return round(float(np.floor(value / resolution + 1e-9)) * resolution, 12)
-
-
-def is_equidistant(x: np.ndarray, rel_tol: float = 1e-6) -> bool:
-    d = np.diff(np.asarray(x, dtype=float))
-    return len(d) > 0 and bool(np.all(np.abs(d - d[0]) <= rel_tol * abs(d[0])))
-
-
-def default_step(x: np.ndarray) -> float:
-    """Grid step when none is given: the target spacing if the targets are equidistant,
-    otherwise the mean spacing (same number of points over the same span)."""
-    x = np.sort(np.asarray(x, dtype=float))
-    return float((x[-1] - x[0]) / (len(x) - 1))
 
 
 def tabulate(curves: FittedCurves, positions: np.ndarray | None = None) -> ErrorTable:

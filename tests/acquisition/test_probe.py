@@ -15,20 +15,19 @@ from pathlib import Path
 import pytest
 
 from acquisition.simulation import start_simulated_rig
-from tui.cli import main
 
 from ..cli import LineReader, guideway, interrupt, one_line_error, spawn
 
 
-def probe(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, list[str], str]:
-    code = main(["devices", "probe", *args])
-    out, err = capsys.readouterr()
-    return code, out.splitlines(), err
+def probe(*args: str) -> tuple[int, list[str], str]:
+    """``guideway devices probe ARGS`` (tests/cli.py): exit code, printed lines, stderr."""
+    res = guideway("devices", "probe", *args)
+    return res.returncode, res.stdout.splitlines(), res.stderr
 
 
-def test_both_devices_identity_and_three_readings(sim_rig, capsys: pytest.CaptureFixture[str]) -> None:
+def test_both_devices_identity_and_three_readings(sim_rig) -> None:
     sensor = f"{sim_rig.sensor_protocol}:{sim_rig.sensor_url}"
-    code, lines, err = probe(capsys, "--sensor", sensor, "--controller", sim_rig.controller_url)
+    code, lines, err = probe("--sensor", sensor, "--controller", sim_rig.controller_url)
     assert code == 0, err
     # the LK-G command set has no identity query: the line says so, and names the command set spoken
     assert lines[0] == (f"sensor {sensor}: model=(not reported; protocol keyence-lkg) "
@@ -55,15 +54,21 @@ def test_both_devices_identity_and_three_readings(sim_rig, capsys: pytest.Captur
     assert 15 < float(env[1]) < 25 and 900 < float(env[4]) < 1100
 
 
-def test_controller_error_is_shown_as_a_reading_and_is_not_a_pass(sim_rig, capsys: pytest.CaptureFixture[str]
-                                                                   ) -> None:
+def test_controller_error_is_shown_as_a_reading_and_is_not_a_pass(sim_rig) -> None:
     sim_rig.world.beam_blocked = True
-    code, lines, err = probe(capsys, "--controller", sim_rig.controller_url, "--count", "1")
+    code, lines, err = probe("--controller", sim_rig.controller_url, "--count", "1")
     assert code == 3, err  # the device answered, but reports an error: exit 3, not 0
     assert lines[1].startswith(f"#1 controller: device error: controller {sim_rig.controller_url}: device reported "
                                "error 1 to 'trigger': beam interrupted")
-    assert "error" in lines[2] and "beam-ok" not in lines[2]
+    assert "error" in lines[2] and "beam-ok" not in lines[2] and "latched" not in lines[2]
     assert err.strip() == "guideway: 1 reading(s) with a device error: not a pass (exit 3)"
+    # the beam is back, the error stays latched (docs/modbus-map.md): still not a pass, and the line says
+    # why the controller reports an error with its beam OK, and that a run clears it
+    sim_rig.world.beam_blocked = False
+    code, lines, err = probe("--controller", sim_rig.controller_url, "--count", "1")
+    assert code == 3, err
+    assert "[ready error beam-ok]" in lines[2] and "error 1: beam interrupted" in lines[2]
+    assert lines[2].endswith("(latched: the beam is OK again; a run clears the error itself, command 5)")
 
 
 def test_sensor_answering_garbage_exits_2_one_line() -> None:
@@ -75,10 +80,10 @@ def test_sensor_answering_garbage_exits_2_one_line() -> None:
     one_line_error(res, f"sensor keyence-lkg:{rig.sensor_url} did not answer properly")
 
 
-def test_sensor_that_hangs_up_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
+def test_sensor_that_hangs_up_exits_2() -> None:
     rig = start_simulated_rig(seed=1, noise=False, faults="sensor:close@2")
     try:
-        code, lines, err = probe(capsys, "--sensor", f"keyence-lkg:{rig.sensor_url}")
+        code, lines, err = probe("--sensor", f"keyence-lkg:{rig.sensor_url}")
     finally:
         rig.close()
     assert code == 2 and lines[1].startswith("#1 sensor:")
@@ -93,13 +98,18 @@ def test_sensor_that_hangs_up_exits_2(capsys: pytest.CaptureFixture[str]) -> Non
      (("--controller", "modbus-tcp://127.0.0.1:{port}"),
       "cannot connect to controller at modbus-tcp://127.0.0.1:{port}: no Modbus answer from 127.0.0.1:{port} "
       "within 1.0 s / connection refused; check the controller address"),
-     (("--controller", "http://x"), "must start with modbus-tcp://")],
+     (("--controller", "http://x"), "must start with modbus-tcp://"),
+     # an explicit 0 was taken as "not given" and the default used
+     (("--controller", "modbus-tcp://127.0.0.1:{port}", "--request-timeout", "0"),
+      "--request-timeout must be a positive number of seconds, got 0.0"),
+     (("--controller", "modbus-tcp://127.0.0.1:{port}", "--trigger-timeout", "0"),
+      "--trigger-timeout must be a positive number of seconds, got 0.0")],
 )
-def test_bad_or_unreachable_devices_exit_2(capsys: pytest.CaptureFixture[str], refused_port: int, args,
+def test_bad_or_unreachable_devices_exit_2(refused_port: int, args,
                                            fragment: str) -> None:
     args = [a.format(port=refused_port) for a in args]
     fragment = fragment.format(port=refused_port)
-    code, _, err = probe(capsys, *args)
+    code, _, err = probe(*args)
     assert code == 2
     assert err.startswith("guideway: error:") and err.count("\n") == 1 and fragment in err
 
@@ -128,10 +138,10 @@ def test_follow_runs_until_ctrl_c(sim_rig, tmp_path: Path, sigint_ignored: bool)
     assert code == 0 and "Traceback" not in err
 
 
-def test_a_sensor_of_another_family_is_not_given_a_model(capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_sensor_of_another_family_is_not_given_a_model() -> None:
     rig = start_simulated_rig(seed=1, noise=False, sensor="panasonic-hlg1")  # an HL-G1 on the line
     try:
-        code, lines, err = probe(capsys, "--sensor", f"keyence-lkg:{rig.sensor_url}", "--baud", "9600")
+        code, lines, err = probe("--sensor", f"keyence-lkg:{rig.sensor_url}", "--baud", "9600")
     finally:
         rig.close()
     assert code == 2 and err.count("\n") == 1 and "did not answer properly" in err
@@ -165,9 +175,8 @@ def hang_up_port() -> Iterator[int]:
         assert not thread.is_alive(), "the hang-up listener's thread did not end"
 
 
-def test_a_port_that_hangs_up_is_no_modbus_answer_one_line(hang_up_port: int,
-                                                            capsys: pytest.CaptureFixture[str]) -> None:
-    code, lines, err = probe(capsys, "--controller", f"modbus-tcp://127.0.0.1:{hang_up_port}")
+def test_a_port_that_hangs_up_is_no_modbus_answer_one_line(hang_up_port: int) -> None:
+    code, lines, err = probe("--controller", f"modbus-tcp://127.0.0.1:{hang_up_port}")
     assert code == 2 and lines == []  # no identity line for a device that never answered
     assert err.startswith("guideway: error:") and err.count("\n") == 1
     assert f"no Modbus answer from 127.0.0.1:{hang_up_port}" in err and "check the controller address" in err
@@ -175,10 +184,10 @@ def test_a_port_that_hangs_up_is_no_modbus_answer_one_line(hang_up_port: int,
 
 
 # -- issue 9: sensor output, device errors, slow and gateway controllers ---------------------------------
-def test_probe_reads_the_lkg5000_output_it_is_told(capsys: pytest.CaptureFixture[str]) -> None:
+def test_probe_reads_the_lkg5000_output_it_is_told() -> None:
     rig = start_simulated_rig(seed=1, noise=False)
     try:
-        code, lines, err = probe(capsys, "--sensor", f"keyence-lkg:{rig.sensor_url}", "--series", "LK-G5000",
+        code, lines, err = probe("--sensor", f"keyence-lkg:{rig.sensor_url}", "--series", "LK-G5000",
                                  "--output", "2", "--count", "1")
     finally:
         rig.close()
@@ -191,27 +200,27 @@ def test_probe_reads_the_lkg5000_output_it_is_told(capsys: pytest.CaptureFixture
     (("--series", "LK-G3000", "--output", "3"), "LK-G3000 output must be 1..2, not 3"),
     (("--output", "0"), "output must be 1..2, not 0"),
 ])
-def test_bad_sensor_output_is_a_one_line_error(sim_rig, capsys: pytest.CaptureFixture[str], args, fragment) -> None:
-    code, _, err = probe(capsys, "--sensor", f"keyence-lkg:{sim_rig.sensor_url}", *args)
+def test_bad_sensor_output_is_a_one_line_error(sim_rig, args, fragment) -> None:
+    code, _, err = probe("--sensor", f"keyence-lkg:{sim_rig.sensor_url}", *args)
     assert code == 2 and err.startswith("guideway: error:") and fragment in err and err.count("\n") == 1
 
 
-def test_a_sensor_error_reply_is_not_a_pass(capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_sensor_error_reply_is_not_a_pass() -> None:
     rig = start_simulated_rig(seed=1, noise=False, faults="sensor:error@1x1=22")  # the first reading
     try:
-        code, lines, err = probe(capsys, "--sensor", f"keyence-lkg:{rig.sensor_url}", "--count", "2")
+        code, lines, err = probe("--sensor", f"keyence-lkg:{rig.sensor_url}", "--count", "2")
     finally:
         rig.close()
     assert code == 3 and "#1 sensor: device error" in lines[1] and lines[2].startswith("#2 sensor: +")
     assert "1 reading(s) with a device error" in err
 
 
-def test_a_slow_controller_is_told_apart_from_a_wrong_address(capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_slow_controller_is_told_apart_from_a_wrong_address() -> None:
     rig = start_simulated_rig(seed=1, noise=False, faults="controller:slow@1=0.2")
     try:
-        code, lines, err = probe(capsys, "--controller", rig.controller_url, "--count", "1",
+        code, lines, err = probe("--controller", rig.controller_url, "--count", "1",
                                  "--trigger-timeout", "0.05")
-        ok = probe(capsys, "--controller", rig.controller_url, "--count", "1", "--trigger-timeout", "0.5")
+        ok = probe("--controller", rig.controller_url, "--count", "1", "--trigger-timeout", "0.5")
     finally:
         rig.close()
     assert code == 2 and lines[0].startswith(f"controller {rig.controller_url}: vendor=guideway-sim")
@@ -220,13 +229,13 @@ def test_a_slow_controller_is_told_apart_from_a_wrong_address(capsys: pytest.Cap
     assert ok[0] == 0 and ok[1][1].startswith("#1 controller: status 0x0015 [ready data-valid beam-ok]")
 
 
-def test_a_controller_behind_a_gateway_is_probed_at_its_device_id(capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_controller_behind_a_gateway_is_probed_at_its_device_id() -> None:
     rig = start_simulated_rig(seed=1, noise=False, device_id=7)
     try:
         assert rig.controller_url.endswith("?device_id=7")
-        code, lines, err = probe(capsys, "--controller", rig.controller_url, "--count", "1")
+        code, lines, err = probe("--controller", rig.controller_url, "--count", "1")
         bare = rig.controller_url.removesuffix("?device_id=7")
-        code1, lines1, err1 = probe(capsys, "--controller", bare, "--count", "1")
+        code1, lines1, err1 = probe("--controller", bare, "--count", "1")
     finally:
         rig.close()
     assert code == 0 and "model=SIM-6DOF-IFM" in lines[0], err

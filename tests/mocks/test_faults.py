@@ -37,7 +37,16 @@ def test_a_beam_loss_is_one_request_long_unless_counted_a_slow_controller_for_go
 @pytest.mark.parametrize(
     ("spec", "fragment"),
     [("sensor:close", "expected DEVICE:KIND@N"), ("robot:close@1", "unknown device"),
-     ("sensor:explode@1", "unknown sensor fault"), ("sensor:close@0", "counts requests from 1")],
+     ("sensor:explode@1", "unknown sensor fault"), ("sensor:close@0", "counts requests from 1"),
+     # these were accepted: a count of 0 never fires, and a bad ARG only showed when the fault fired,
+     # as the emulator failing (a Modbus "server device failure" blamed on the controller address)
+     ("sensor:close@1x0", "xCOUNT must be at least 1"),
+     ("controller:slow@1=abc", "ARG must be a number of seconds >= 0, got 'abc'"),
+     ("controller:delay@2=-1", "ARG must be a number of seconds >= 0, got '-1'"),
+     ("sensor:delay@2=inf", "ARG must be a number of seconds >= 0"),
+     ("controller:exception@1=9", r"ARG must be a Modbus exception code \(1, 2, 3, 4, 5, 6, 7, 8, 10, 11\)"),
+     ("sensor:error@1=E2", "ARG must be the device's error code, a whole number, got 'E2'"),
+     ("sensor:garbage@3=5", "garbage takes no ARG")],
 )
 def test_bad_specs_name_the_problem(spec: str, fragment: str) -> None:
     with pytest.raises(FaultSpecError, match=fragment):

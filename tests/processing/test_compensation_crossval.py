@@ -199,3 +199,71 @@ def test_fast_segmentation_and_its_leave_one_out_shortcut_agree_with_the_definit
         plain, hinted = fit_segments(xr, er), fit_segments(xr, er, hint=full)
         assert list(hinted.breakpoints) == list(plain.breakpoints)
         np.testing.assert_array_equal(hinted.node_values, plain.node_values)
+
+
+def reference_spline(x: np.ndarray, e: np.ndarray):  # noqa: ANN201 - a callable, the spline held at the ends
+    """Seed 003's adaptive spline, literally, on scipy's CubicSpline: knots = both ends + every
+    local curvature maximum (curvature over the point index), then every point whose residual
+    exceeds max|e|/20 becomes a knot, until none does."""
+    from scipy.interpolate import CubicSpline
+    from scipy.signal import argrelextrema
+
+    tol = float(np.max(np.abs(e))) / 20
+    d1 = np.gradient(e, np.arange(len(e), dtype=float))
+    kappa = np.abs(np.gradient(d1, np.arange(len(e), dtype=float))) / (1 + d1**2) ** 1.5
+    knots = np.union1d([0, len(x) - 1], argrelextrema(kappa, np.greater)[0])
+    while True:
+        spline = CubicSpline(x[knots], e[knots], bc_type="natural" if len(knots) > 2 else "not-a-knot")
+        over = np.flatnonzero(np.abs(e - spline(x)) > tol)
+        if over.size == 0:
+            return lambda q: spline(np.clip(q, x[0], x[-1]))
+        knots = np.union1d(knots, over)
+
+
+def reference_segments(x: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(nodes, values) of seed 004's segments: the literal greedy breakpoints, and the values of
+    the least-squares polyline on them by scipy's QR least-squares spline of degree 1."""
+    from scipy.interpolate import make_lsq_spline
+
+    nodes = x[reference_breakpoints(x, e, float(np.max(np.abs(e))) / 20)]
+    knots = np.concatenate(([nodes[0]], nodes, [nodes[-1]]))
+    return nodes, make_lsq_spline(x, e, knots, k=1)(nodes)
+
+
+@pytest.mark.parametrize("model", ["spline", "segments"])
+def test_refits_give_the_residuals_of_the_reference_fits(model: str) -> None:
+    # the cross-validation refits (fast splines, hinted segmentation) against the models fitted
+    # the plain way in every fold: each fold's table is the model at the union of both
+    # directions' nodes (targets, or breakpoints), interpolated linearly, ends held
+    rng = np.random.default_rng(11)
+    n, runs = 45, 3
+    x = np.sort(rng.uniform(0, 1000, n))
+    truth = {1: 5 * np.sin(x / 90) + 0.004 * x, -1: 5 * np.sin(x / 90) + 0.004 * x - 2}
+    dev = pd.DataFrame([(t, d, j, m + rng.normal(0, 0.3)) for j in range(1, runs + 1) for d in (1, -1)
+                        for t, m in zip(x, truth[d], strict=True)], columns=["target", "direction", "run", "deviation"])
+
+    def fold(train: pd.DataFrame, test: pd.DataFrame) -> np.ndarray:
+        means = train.groupby(["direction", "target"])["deviation"].mean()
+        fits, nodes = {}, []
+        for d in (1, -1):
+            xs, es = means[d].index.to_numpy(), means[d].to_numpy()
+            if model == "spline":
+                fits[d] = reference_spline(xs, es)
+                nodes.append(xs)
+            else:
+                bx, bv = reference_segments(xs, es)
+                fits[d] = lambda q, bx=bx, bv=bv: np.interp(q, bx, bv)
+                nodes.append(bx)
+        pos = np.union1d(*nodes)
+        table = {d: np.interp(test.target.to_numpy(), pos, fits[d](pos)) for d in (1, -1)}
+        return test.deviation.to_numpy() - np.where(test.direction.to_numpy() > 0, table[1], table[-1])
+
+    by_run = np.concatenate([fold(dev[dev.run != j], dev[dev.run == j]) for j in range(1, runs + 1)])
+    by_target = np.concatenate([fold(dev[dev.target != t], dev[dev.target == t]) for t in x])
+    pts = MeasuredPoints.from_deviations(dev)
+    got_run = leave_one_run_out(pts, model=model)
+    got_target = leave_one_target_out(pts, model=model)
+    exact = 0.0 if model == "spline" else 1e-12  # segments: least squares solved another way (rounding)
+    assert (got_run.rms, got_run.max_abs) == pytest.approx(pooled(list(by_run)), rel=0, abs=exact)
+    assert (got_target.rms, got_target.max_abs) == pytest.approx(pooled(list(by_target)), rel=0, abs=exact)
+    assert (got_run.points, got_target.points) == (len(by_run), len(by_target))

@@ -174,3 +174,59 @@ def test_spline_on_a_straight_line_needs_only_the_end_knots() -> None:
     m = fit_adaptive_spline(x, 1.5 - 0.1 * x, tolerance=1e-9)
     assert list(m.knots) == [0, 4] and m.iterations == 1
     assert m(np.array([30.0]))[0] == pytest.approx(-1.5)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_fast_natural_spline_is_scipys_natural_cubic_spline_to_the_bit(seed: int) -> None:
+    # fit_adaptive_spline builds its splines without CubicSpline's checks (cross-validation refits
+    # hundreds of times); the knot choice compares residuals with the tolerance, so the splines
+    # must be the same to the last bit, not only close
+    from scipy.interpolate import CubicSpline
+
+    from processing.compensation.models import _natural_spline
+
+    rng = np.random.default_rng(seed)
+    x = np.unique(rng.uniform(-50, 1000, int(rng.integers(3, 300))))
+    e = rng.normal(0, 1, len(x)) * 10.0 ** rng.uniform(-2, 2)
+    knots = np.union1d([0, len(x) - 1], rng.choice(len(x), int(rng.integers(1, len(x) + 1)), replace=False))
+    fast, scipy_spline = _natural_spline(x, e, knots), CubicSpline(x[knots], e[knots], bc_type="natural")
+    xq = np.linspace(x[0] - 10, x[-1] + 10, 500)
+    np.testing.assert_array_equal(fast(xq), scipy_spline(xq))
+    np.testing.assert_array_equal(fast(x[knots], 2), scipy_spline(x[knots], 2))
+
+
+def test_curvature_maxima_are_scipys_strict_relative_maxima() -> None:
+    from scipy.signal import argrelextrema
+
+    from processing.compensation.models import curvature
+
+    rng = np.random.default_rng(0)
+    e = np.round(rng.normal(0, 1, 400), 1)  # rounded: equal neighbours (plateaus are not maxima)
+    (idx,) = argrelextrema(curvature(np.arange(400.0), e), np.greater)
+    assert sorted(curvature_maxima(e)) == list(idx)
+
+
+def test_segment_values_are_the_least_squares_polyline() -> None:
+    # the node values solve the least-squares problem over the hat functions of the breakpoints
+    # (written here as a dense matrix and solved by numpy's SVD-based lstsq)
+    rng = np.random.default_rng(5)
+    x = np.unique(rng.uniform(0, 1000, 300))
+    e = 4 * np.sin(x / 70) + rng.normal(0, 0.3, len(x))
+    model = fit_segments(x, e)
+    nodes = model.nodes
+    basis = np.stack([np.interp(x, nodes, np.eye(len(nodes))[j]) for j in range(len(nodes))], axis=1)
+    expected = np.linalg.lstsq(basis, e, rcond=None)[0]
+    np.testing.assert_allclose(model.node_values, expected, rtol=0, atol=1e-11)
+
+
+@pytest.mark.timeout(20)
+def test_spline_with_zero_tolerance_ends_with_every_point_a_knot() -> None:
+    # a spline evaluated at its own last knot is off by rounding (~1e-16): with tolerance 0 that
+    # point was "over" the tolerance, re-added as a knot it already was, and the fit never ended
+    # (guideway export --tolerance 0 hung)
+    rng = np.random.default_rng(1)
+    x = np.unique(rng.uniform(0, 1000, 40))
+    e = rng.normal(0, 3, len(x))
+    model = fit_adaptive_spline(x, e, tolerance=0.0)
+    assert list(model.knots) == list(range(len(x)))
+    np.testing.assert_allclose(model(x), natural_cubic_spline(x, e, x), rtol=0, atol=1e-9)

@@ -48,8 +48,10 @@ def probe(args: argparse.Namespace) -> int:
     if args.count < 1:
         raise UserError(f"--count must be at least 1 (got {args.count})")
     d = ControllerTiming()
-    timing = ControllerTiming(args.trigger_timeout or d.trigger_timeout_s, d.poll_interval_s,
-                              args.request_timeout or d.request_timeout_s, d.trigger_retries)
+    timing = ControllerTiming(d.trigger_timeout_s if args.trigger_timeout is None else args.trigger_timeout,
+                              d.poll_interval_s,
+                              d.request_timeout_s if args.request_timeout is None else args.request_timeout,
+                              d.trigger_retries)  # not `or`: an explicit 0 is refused, not the default
     if problem := timing.problem():
         raise UserError(problem.replace("trigger_timeout_s", "--trigger-timeout").replace(
             "request_timeout_s", "--request-timeout"))
