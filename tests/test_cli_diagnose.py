@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from acquisition.runstore import load_run
-from tui.cli import main
+from tests.cli import guideway, one_line_error
 
 SCENARIO = """
 kind = "positioning"
@@ -46,27 +46,21 @@ um_per_min = 0.03
 """
 
 
-def run_cli(capsys, *args: str) -> tuple[int, str, str]:
-    code = main(list(args))
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
-def test_simulated_positioning_run_goes_through_every_command(tmp_path: Path, capsys) -> None:
+def test_simulated_positioning_run_goes_through_every_command(tmp_path: Path) -> None:
     scenario = tmp_path / "scenario.toml"
     scenario.write_text(SCENARIO)
     run = tmp_path / "run"
-    code, out, _ = run_cli(capsys, "simulate", str(scenario), "--out", str(run))
+    code, out, _ = guideway("simulate", str(scenario), "--out", str(run))
     assert code == 0 and "168 points" in out
     meta = load_run(run).meta
     assert meta["status"] == "complete" and meta["simulation"]["seed"] == 7
-    code, out, _ = run_cli(capsys, "process", str(run), "--json")
+    code, out, _ = guideway("process", str(run), "--json")
     assert code == 0 and json.loads(out)["kind"] == "positioning"
-    assert run_cli(capsys, "report", str(run))[0] == 0
-    assert run_cli(capsys, "export", str(run), "--format", "linuxcnc", "--out", str(tmp_path / "comp.tbl"))[0] == 0
+    assert guideway("report", str(run))[0] == 0
+    assert guideway("export", str(run), "--format", "linuxcnc", "--out", str(tmp_path / "comp.tbl"))[0] == 0
 
     report, model = tmp_path / "diagnosis.html", tmp_path / "model.toml"
-    code, out, err = run_cli(capsys, "diagnose", str(run), "--json", "--report", str(report), "--out", str(model))
+    code, out, err = guideway("diagnose", str(run), "--json", "--report", str(report), "--out", str(model))
     assert code == 0, err
     d = json.loads(out)
     assert sorted(d["named"]) == ["periodic", "thermal_growth"] and d["ambiguous"] == []
@@ -80,20 +74,20 @@ def test_simulated_positioning_run_goes_through_every_command(tmp_path: Path, ca
     assert html.count("<img") >= 2 + len(d["steps"]) and "Step 2" in html and "Final model" in html
 
     # the model written back is a model file: reused, nothing is missing any more
-    code, out, _ = run_cli(capsys, "diagnose", str(run), "--model", str(model), "--json")
+    code, out, _ = guideway("diagnose", str(run), "--model", str(model), "--json")
     again = json.loads(out)
     assert code == 0 and again["named"] == [] and again["steps"] == []
     assert again["baseline"]["rms_um"] == pytest.approx(d["final"]["rms_um"], rel=1e-3)
 
 
-def test_a_noise_free_simulation_names_exactly_what_it_hid(tmp_path: Path, capsys) -> None:
+def test_a_noise_free_simulation_names_exactly_what_it_hid(tmp_path: Path) -> None:
     """``simulate --no-noise``: the hidden effects come back to the precision of the wavelength search and
     nothing else is named (not the rounding left after them, not a time-origin leak into a scale error)."""
     scenario = tmp_path / "scenario.toml"
     scenario.write_text(SCENARIO)
     run = tmp_path / "run"
-    assert run_cli(capsys, "simulate", str(scenario), "--out", str(run), "--no-noise")[0] == 0
-    code, out, err = run_cli(capsys, "diagnose", str(run), "--json")
+    assert guideway("simulate", str(scenario), "--out", str(run), "--no-noise")[0] == 0
+    code, out, err = guideway("diagnose", str(run), "--json")
     assert code == 0, err
     d = json.loads(out)
     assert d["named"] == ["periodic", "thermal_growth"] and d["ambiguous"] == [], d["named"]
@@ -104,15 +98,15 @@ def test_a_noise_free_simulation_names_exactly_what_it_hid(tmp_path: Path, capsy
     assert d["final"]["rms_um"] < 1e-4
 
 
-def test_simulate_is_reproducible_by_seed(tmp_path: Path, capsys) -> None:
+def test_simulate_is_reproducible_by_seed(tmp_path: Path) -> None:
     scenario = tmp_path / "s.toml"
     scenario.write_text(STRAIGHTNESS)
     for name, seed in (("a", "3"), ("b", "3"), ("c", "4")):
-        assert run_cli(capsys, "simulate", str(scenario), "--out", str(tmp_path / name), "--seed", seed)[0] == 0
+        assert guideway("simulate", str(scenario), "--out", str(tmp_path / name), "--seed", seed)[0] == 0
     text = {n: (tmp_path / n / "points.csv").read_text() for n in "abc"}
     assert text["a"] == text["b"] != text["c"]
-    assert run_cli(capsys, "process", str(tmp_path / "a"), "--mc-trials", "0")[0] == 0
-    code, out, _ = run_cli(capsys, "diagnose", str(tmp_path / "a"))
+    assert guideway("process", str(tmp_path / "a"), "--mc-trials", "0")[0] == 0
+    code, out, _ = guideway("diagnose", str(tmp_path / "a"))
     assert code == 0 and "named: sensor_drift" in out
 
 
@@ -125,10 +119,10 @@ def test_simulate_is_reproducible_by_seed(tmp_path: Path, capsys) -> None:
     ('kind = "positioning"\n[noise]\nreading_nm = 3\n[axis]\nend_mm = 500.0\n', "unknown key 'reading_nm'"),
     ('kind = "positioning"\nseed = -3\n[axis]\nend_mm = 500.0\n', "seed must be a whole number >= 0"),
 ])
-def test_bad_scenarios_are_one_line_errors(tmp_path: Path, capsys, text: str, fragment: str) -> None:
+def test_bad_scenarios_are_one_line_errors(tmp_path: Path, text: str, fragment: str) -> None:
     path = tmp_path / "bad.toml"
     path.write_text(text)
-    code, _, err = run_cli(capsys, "simulate", str(path), "--out", str(tmp_path / "run"))
+    code, _, err = guideway("simulate", str(path), "--out", str(tmp_path / "run"))
     assert code == 2 and err.count("guideway: error:") == 1 and fragment in err, err
     assert not (tmp_path / "run").exists()
 
@@ -136,43 +130,40 @@ def test_bad_scenarios_are_one_line_errors(tmp_path: Path, capsys, text: str, fr
 @pytest.mark.parametrize("command", [["simulate", "SCENARIO", "--out", "RUN"], ["demo", "--out", "RUN"],
                                      ["acquire", "positioning", "--simulate", "--out", "RUN"], ["sim", "serve"],
                                      ["tui", "--out", "RUN"]])
-def test_a_negative_seed_is_a_one_line_error(tmp_path: Path, capsys, command: list[str]) -> None:
+def test_a_negative_seed_is_a_one_line_error(tmp_path: Path, command: list[str]) -> None:
     scenario = tmp_path / "s.toml"
     scenario.write_text(STRAIGHTNESS)
     args = [{"SCENARIO": str(scenario), "RUN": str(tmp_path / "run")}.get(a, a) for a in command]
-    with pytest.raises(SystemExit) as exc:
-        main([*args, "--seed", "-1"])
-    err = capsys.readouterr().err
-    assert exc.value.code == 2 and err.count("guideway: error:") == 1 and "a seed is a whole number >= 0" in err, err
+    one_line_error(guideway(*args, "--seed", "-1"), "a seed is a whole number >= 0")
     assert not (tmp_path / "run").exists()
 
 
-def test_bad_diagnose_input_is_a_one_line_error(tmp_path: Path, capsys) -> None:
+def test_bad_diagnose_input_is_a_one_line_error(tmp_path: Path) -> None:
     scenario = tmp_path / "s.toml"
     scenario.write_text(STRAIGHTNESS)
-    run_cli(capsys, "simulate", str(scenario), "--out", str(tmp_path / "run"))
+    guideway("simulate", str(scenario), "--out", str(tmp_path / "run"))
     model = tmp_path / "m.toml"
     model.write_text('kind = "positioning"\n[[effect]]\ntype = "backlash"\nfree = true\n')
-    code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(model))
+    code, _, err = guideway("diagnose", str(tmp_path / "run"), "--model", str(model))
     assert code == 2 and "is a positioning model" in err and "straightness run" in err
     model.write_text('kind = "straightness"\n[[effect]]\ntype = "lever_arm"\nerror_mm = "x"\n')
-    code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(model))
+    code, _, err = guideway("diagnose", str(tmp_path / "run"), "--model", str(model))
     assert code == 2 and "error_mm must be a number" in err
-    code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(model))
+    code, _, err = guideway("diagnose", str(tmp_path / "run"), "--model", str(model))
     assert code == 2 and "error_mm must be a number" in err
     # a model effect the run cannot evaluate (an imported run without times): no silent NaN
     data = tmp_path / "data.csv"
     data.write_text("run,direction,target_mm,reading_mm\n" + "".join(
         f"{r},{d},{p},{p + 1e-4 * (r + d)}\n" for r in (1, 2) for d in (1, -1) for p in (0.0, 250.0, 500.0)))
-    assert run_cli(capsys, "import", "positioning", str(data), "--out", str(tmp_path / "imported"),
+    assert guideway("import", "positioning", str(data), "--out", str(tmp_path / "imported"),
                    "--compensated")[0] == 0
     model.write_text('kind = "positioning"\n[[effect]]\ntype = "thermal_drift"\nfree = true\n')
-    code, out, err = run_cli(capsys, "diagnose", str(tmp_path / "imported"), "--model", str(model))
+    code, out, err = guideway("diagnose", str(tmp_path / "imported"), "--model", str(model))
     assert code == 2 and err.count("guideway: error:") == 1 and "thermal_drift cannot be evaluated" in err, (out, err)
     assert "no time_s recorded" in err and out == ""
-    code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "nothing"))
+    code, _, err = guideway("diagnose", str(tmp_path / "nothing"))
     assert code == 2 and "no such run directory" in err
-    code, _, err = run_cli(capsys, "diagnose", str(tmp_path / "run"), "--model", str(tmp_path / "missing.toml"))
+    code, _, err = guideway("diagnose", str(tmp_path / "run"), "--model", str(tmp_path / "missing.toml"))
     assert code == 2 and err.startswith("guideway: error:")
 
 

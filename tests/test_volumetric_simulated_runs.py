@@ -34,6 +34,7 @@ from mocks.world import euler_zyx
 from processing.volumetric.evaluate import first_order
 from tui.cli import main
 
+from .cli import guideway
 from .controller_parsers import read_linuxcnc_comp
 from .volumetric_xz import xz_first_order, xz_machine
 
@@ -172,18 +173,9 @@ def test_volumetric_error_at_the_positioning_targets(machine_dir: tuple[Path, di
     assert np.max(np.abs(want)) > 5.0
 
 
-def guideway(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]:
-    """The command line in this process (the runs are loaded again, as a fresh process would)."""
-    capsys.readouterr()
-    code = main(list(args))
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def test_cli_at_json_names_the_dominant_elements(machine_dir: tuple[Path, dict],
-                                                 capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_at_json_names_the_dominant_elements(machine_dir: tuple[Path, dict]) -> None:
     d, truth = machine_dir
-    code, out, err = guideway(capsys, "volumetric", str(d / "machine.toml"), "--at", "250", "150", "--json")
+    code, out, err = guideway("volumetric", str(d / "machine.toml"), "--at", "250", "150", "--json")
     assert code == 0, err
     obj = json.loads(out)
     assert obj["pose"] == {"X": 250.0, "Z": 150.0} and obj["method"] == "first-order"
@@ -200,11 +192,10 @@ def test_cli_at_json_names_the_dominant_elements(machine_dir: tuple[Path, dict],
     assert rows["EZZ"]["dz_um"] == rows["EZZ"]["value"]
 
 
-def test_cli_grid_writes_csv_summary_and_report(machine_dir: tuple[Path, dict], tmp_path: Path,
-                                                capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_grid_writes_csv_summary_and_report(machine_dir: tuple[Path, dict], tmp_path: Path) -> None:
     d, truth = machine_dir
     out = tmp_path / "grid"
-    code, _, err = guideway(capsys, "volumetric", str(d / "machine.toml"), "--out", str(out), "--grid", "5", "--exact")
+    code, _, err = guideway("volumetric", str(d / "machine.toml"), "--out", str(out), "--grid", "5", "--exact")
     assert code == 0, err
     import pandas as pd
 
@@ -228,13 +219,12 @@ def test_cli_grid_writes_csv_summary_and_report(machine_dir: tuple[Path, dict], 
     assert html.count("<img") >= 2 and "XZ plane" in html and "EXX" in html
 
 
-def test_cli_export_linuxcnc_tables_read_back(machine_dir: tuple[Path, dict], tmp_path: Path,
-                                              capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_export_linuxcnc_tables_read_back(machine_dir: tuple[Path, dict], tmp_path: Path) -> None:
     """The X table holds EXX (Z at its reference 0: no cross term along X there), the Z table EZZ;
     read back as LinuxCNC does, the correction is -error."""
     d, truth = machine_dir
     out = tmp_path / "comp"
-    code, stdout, err = guideway(capsys, "volumetric", str(d / "machine.toml"), "--export", "linuxcnc", "--out",
+    code, stdout, err = guideway("volumetric", str(d / "machine.toml"), "--export", "linuxcnc", "--out",
                                  str(out), "--grid", "9")
     assert code == 0, err
     assert "cross terms" in stdout
