@@ -28,6 +28,7 @@ from processing.passes import check_order
 from .errors import RunFormatError, UserError
 from .evaluate_positioning import positioning_deviations
 from .evaluate_straightness import check_finite, run_geometry
+from .limits import out_of_range
 from .runstore import LoadedRun, load_run, write_text_atomic
 from .scenario import EffectModel, empty_model, load_model, model_toml
 
@@ -231,16 +232,20 @@ def _straightness(run: LoadedRun, reference: bool) -> tuple[Observations, Observ
 
 
 def diagnose_run(run_dir: Path | str, model: EffectModel | Path | str | None = None,
-                 rule: Rule | None = None) -> Diagnosis:
-    """Diagnose the run in ``run_dir`` against ``model`` (a model file, a loaded model, or None: nothing known)."""
+                 rule: Rule | None = None, *, accept_out_of_range: bool = False) -> Diagnosis:
+    """Diagnose the run in ``run_dir`` against ``model`` (a model file, a loaded model, or None: nothing known).
+
+    Values outside the set-up's validation limits are refused as ``process`` refuses them
+    (acquisition.limits) unless ``accept_out_of_range``; accepted ones are listed in the notes."""
     run = load_run(run_dir)
+    accepted = out_of_range(run, accept=accept_out_of_range) if len(run.points) else ()
     if model is None:
         model = empty_model(run.kind)
     elif not isinstance(model, EffectModel):
         model = load_model(model)
     if model.kind != run.kind:
         raise UserError(f"{model.source} is a {model.kind} model; {run.path} is a {run.kind} run")
-    channels, notes = [], []
+    channels, notes = [], [f"accepted outside the set-up's limits: {a.text()}" for a in accepted]
     observed = run_observations(run, model)
     usable = [obs for obs in observed if obs.n >= 3]
     rule = replace(rule or Rule(), channels=len(usable))  # alpha is shared by the channels of the run

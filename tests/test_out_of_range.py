@@ -118,6 +118,17 @@ def test_environment_values_the_compensation_cannot_use_are_refused(tmp_path: Pa
         (column, float(value))]
 
 
+def test_diagnose_refuses_what_process_refuses(tmp_path: Path) -> None:
+    # diagnose took the deviations without the limits: a humidity of 1e9 %RH became a "physical effect"
+    run = compensated_run(tmp_path)
+    set_cell(run, 4, "humidity_pct", "1e9")
+    one_line_error(guideway("diagnose", run), "target 4 (302.5 mm), run 1 up (+): humidity_pct = 1e+09 outside "
+                   "[0, 100] %RH", "--accept-out-of-range")
+    res = guideway("diagnose", run, "--json", "--accept-out-of-range")
+    assert res.returncode == 0, res.stderr
+    assert any("humidity_pct = 1e+09" in n for n in json.loads(res.stdout)["notes"])
+
+
 def test_environment_values_are_not_checked_where_they_are_not_used(tmp_path: Path) -> None:
     run = tmp_path / "run"
     write_run(run)  # readings_compensated = true: the air values are only recorded

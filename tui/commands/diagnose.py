@@ -22,7 +22,7 @@ def run(args: argparse.Namespace) -> int:
     from acquisition.runstore import load_run
 
     warn_about_run(load_run(args.run_dir), "diagnosing the")
-    diagnosis = diagnose_run(args.run_dir, args.model)
+    diagnosis = diagnose_run(args.run_dir, args.model, accept_out_of_range=args.accept_out_of_range)
     written = []
     if args.report is not None:
         from acquisition.report.diagnosis import write_diagnosis_report
@@ -51,6 +51,8 @@ def register(sub) -> None:  # noqa: ANN001
     p.add_argument("--model", type=Path, default=None,
                    help="model file (TOML; kind and [[effect]] tables); default: an empty model")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.add_argument("--accept-out-of-range", action="store_true",
+                   help="use values outside the set-up's validation limits instead of refusing the run (as process)")
     p.add_argument("--report", type=Path, default=None, metavar="FILE",
                    help="write an HTML report with a plot per step")
     p.add_argument("--out", type=Path, default=None, metavar="MODEL_OUT.toml",
