@@ -237,6 +237,7 @@ class GuidewayApp(App[None]):
             else self.screen_stack[-2] if len(self.screen_stack) > 1 else None
         if screen is not None and hasattr(screen, "refresh_view"):  # a run screen
             screen.refresh_view()
+            screen.sync_bindings()
 
     def _ask(self, prompt: Prompt, ticket: int) -> None:
         session = self.session

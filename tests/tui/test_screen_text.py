@@ -8,9 +8,9 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from acquisition.messages import Prompt
+from acquisition.messages import Instruct, Prompt
 from acquisition.setup_file import setup_from_dict
-from tests.tui.frozen import RUNS, ifm, straightness_session
+from tests.tui.frozen import RUNS, ifm, positioning_session, straightness_session
 from tests.tui.sessions import POSITIONING, screen_lines, screen_name, widget_text
 from tests.waiting import wait_for_app
 from tui.app import GuidewayApp
@@ -250,3 +250,45 @@ def test_every_set_up_label_fits_its_column() -> None:
     for kind, _ in RUN_KINDS:
         found = asyncio.run(labels(kind))
         assert len(found) > 5 and [h for _, h in found] == [1] * len(found), (kind, found)
+
+
+def footer_after(session: Any, question: Instruct | None) -> tuple[str, str]:
+    """The footer line of the capture screen once ``question`` (None: keep the session's) is pending."""
+    async def main() -> tuple[str, str]:
+        app = GuidewayApp(runs_dir=ROOT / RUNS, start="runs")
+        async with app.run_test(size=(160, 48)) as pilot:
+            app.session = session
+            screen = CaptureScreen(session)
+            app._switch(screen)
+            await pilot.pause()
+            first = screen_lines(app)[-1]
+            if question is not None:
+                session.view.question = question
+                screen.sync_bindings()
+                await pilot.pause()
+            return first, screen_lines(app)[-1]
+
+    return asyncio.run(main())
+
+
+def test_the_footer_offers_only_the_choices_the_plan_offers() -> None:
+    # a straightness station may be redone; a positioning target (acquisition/plans/positioning.py) can only be
+    # captured, skipped, paused or aborted, so "r redo" must not be in the footer of a positioning run
+    target = Instruct("target", "Target 4 (150 mm), run 1, up: capture when the axis is in position.",
+                      {"target_index": 4, "run": 1, "direction": 1}, choices=("capture", "skip", "pause", "abort"),
+                      key="target")
+    station, positioning = footer_after(straightness_session("capture"), target)
+    assert " redo " in station and " skip " in station
+    assert " redo " not in positioning and " skip " in positioning and " abort " in positioning
+    # at the cycle start only "started" (Space) and abort answer; redo and skip are off the footer
+    cycle, _ = footer_after(positioning_session(), None)
+    assert " redo " not in cycle and " skip " not in cycle and " abort " in cycle
+
+
+def test_the_warm_up_override_is_offered_only_with_a_warm_up() -> None:
+    with_warmup = show_screen(lambda _a: ConnectScreen(straightness_session("warmup")), size=(160, 48),
+                              check=lambda app: screen_lines(app)[-1])
+    without = show_screen(lambda _a: ConnectScreen(positioning_session()), size=(160, 48),
+                          check=lambda app: screen_lines(app)[-1])
+    assert " override warm-up " in with_warmup
+    assert " override warm-up " not in without and " abort " in without

@@ -47,6 +47,22 @@ class RunScreen(Screen):
     def __init__(self, session: RunSession) -> None:
         super().__init__()
         self.session = session
+        # the choices of the last instruction: a key the plan does not offer (redo on a positioning run)
+        # is not in the footer; kept between instructions so the footer does not flicker at each capture
+        self.offered: tuple[str, ...] = ()
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        if action == "choose":
+            return parameters[0] in self.offered
+        return True
+
+    def sync_bindings(self) -> None:
+        """Refresh the footer when the pending instruction offers other choices (called with every view
+        refresh; cheap when nothing changed)."""
+        q = self.instruction
+        if q is not None and q.choices != self.offered:
+            self.offered = q.choices
+            self.refresh_bindings()
 
     @property
     def instruction(self) -> Instruct | None:
@@ -100,6 +116,7 @@ class RunScreen(Screen):
         # collected.
         gc.freeze()
         self.refresh_view()
+        self.sync_bindings()
 
 
 def ConfirmAbort() -> Any:  # noqa: N802 - a factory named like the dialog it makes
@@ -127,6 +144,11 @@ class ConnectScreen(RunScreen):
         yield Sparkline([], id="history")
         yield Static(id="log", classes="log")
         yield Footer()
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        if action == "override":  # only a set-up with a warm-up has one to override
+            return self.session.info.warmup
+        return super().check_action(action, parameters)
 
     def action_override(self) -> None:
         if self.session.info.warmup:
