@@ -7,6 +7,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from processing.air_index import DEFAULT_EQUATION
+from processing.environment import EnvironmentSettings
 from processing.iso230_2 import LONG_AXIS_MM
 
 from .errors import SetupError
@@ -30,6 +32,7 @@ class EnvironmentSetup:
     abbe_offset_mm: tuple[float, float] = (0.0, 0.0)
     co2_ppm: float = 450.0
     readings_compensated: bool = False
+    index_equation: str = DEFAULT_EQUATION  # "ciddor" or "edlen" (docs/positioning.md)
 
     def to_dict(self) -> dict[str, Any]:
         return {**asdict(self), "abbe_offset_mm": list(self.abbe_offset_mm)}
@@ -246,7 +249,12 @@ def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> 
         abbe_offset_mm=en.vector("abbe_offset_mm", 2, list(e.abbe_offset_mm)),  # type: ignore[arg-type]
         co2_ppm=en.get("co2_ppm", float, e.co2_ppm),
         readings_compensated=en.get("readings_compensated", bool, e.readings_compensated),
+        index_equation=en.get("index_equation", str, e.index_equation),
     )
+    try:  # the checks processing makes, now rather than after the run is captured
+        EnvironmentSettings.from_dict(environment.to_dict())
+    except ValueError as exc:
+        raise SetupError(f"{source}: {str(exc).replace('setup.environment.', '[environment] ')}") from None
     ctl = top.table("controller")
     devices = DeviceSetup(sensor_url="", controller_url=ctl.get("url", str, ""),
                           word_order=ctl.get("word_order", str, "ABCD"),

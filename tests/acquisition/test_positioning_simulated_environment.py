@@ -47,7 +47,8 @@ def process_json(run_dir: Path, capsys: pytest.CaptureFixture[str]) -> dict[str,
     {"refractive_index_assumed": 1.0, "dead_path_mm": 0.0},           # raw vacuum-wavelength counts
     {"refractive_index_assumed": 1.00027, "dead_path_mm": 350.0},     # a fixed index, a dead path
     {"readings_compensated": True},                                   # the controller compensates
-], ids=["vacuum-counts", "fixed-index-dead-path", "compensated"])
+    {"refractive_index_assumed": 1.0, "index_equation": "edlen"},     # the set-up chooses Edlén
+], ids=["vacuum-counts", "fixed-index-dead-path", "compensated", "edlen"])
 def test_processing_recovers_the_simulated_axis_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                         environment: dict[str, Any]) -> None:
     src = setup_source(environment)
@@ -70,6 +71,8 @@ def test_processing_recovers_the_simulated_axis_errors(tmp_path: Path, capsys: p
     both = np.concatenate([up, down])
     assert out["iso230_2"]["E"] == pytest.approx(both.max() - both.min(), abs=2e-3)
     assert out["environment"]["applied"] == (not environment.get("readings_compensated", False))
+    if out["environment"]["applied"]:
+        assert out["environment"]["equation"] == environment.get("index_equation", "ciddor")
 
     # the live display showed each point as process evaluates it: the compensated deviation, labelled
     _, ev = process_run_dir(tmp_path / "run")

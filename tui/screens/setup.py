@@ -113,8 +113,25 @@ def positioning_fields(unit: str) -> list[tuple[str, list[Field]]]:
             Field("trigger", "dwell_s", "dwell (s)"), Field("trigger", "timeout_s", "timeout (s)")]),
         ("Devices", [
             Field("controller", "url", "controller URL", "str", placeholder="modbus-tcp://192.168.0.10:502"),
-            Field("controller", "word_order", "word order", "choice", ("ABCD", "CDAB"))]),
+            Field("controller", "word_order", "word order", "choice", ("ABCD", "CDAB")),
+            *([Field("transmitter", "url", "XY-MD02 URL", "str",
+                     placeholder="optional: the controller's environment unit")] if u == "mm" else [])]),
+        *([("Environment (what the readings contain)", ENVIRONMENT_FIELDS)] if u == "mm" else []),
     ]
+
+
+# [environment] of a linear axis (docs/run-format.md); an angle is not air-compensated, so rotary has none.
+# The placeholders are the loader's defaults (acquisition/positioning_setup.py EnvironmentSetup).
+ENVIRONMENT_FIELDS = [
+    Field("environment", "expansion_ppm_per_k", "expansion (ppm/K)", placeholder="default 11.5 (steel)"),
+    Field("environment", "readings_compensated", "readings compensated by the controller", "bool"),
+    Field("environment", "refractive_index_assumed", "air index assumed", placeholder="default 1.0 (uncompensated)"),
+    Field("environment", "wavelength_nm", "wavelength (nm)", placeholder="default 632.991 (HeNe)"),
+    Field("environment", "dead_path_mm", "dead path (mm)", placeholder="default 0"),
+    Field("environment", "abbe_offset_mm", "Abbe offset y, z (mm)", "vec", placeholder="default 0, 0"),
+    Field("environment", "co2_ppm", "CO2 (ppm)", placeholder="default 450"),
+    Field("environment", "index_equation", "air-index equation", "choice", ("ciddor", "edlen")),
+]
 
 
 def default_source(run_kind: str) -> dict[str, Any]:
