@@ -13,7 +13,15 @@ from processing.iso230_2 import LONG_AXIS_MM
 
 from .errors import SetupError
 from .iso230 import CYCLES, Stop, check_targets, cycle, linear_targets, rotary_targets
-from .setup import DeviceSetup, _Table, check_devices, controller_timing_keys, read_toml, scenario_path
+from .setup import (
+    DeviceSetup,
+    _Table,
+    check_devices,
+    controller_timing_keys,
+    naming_source,
+    read_toml,
+    scenario_path,
+)
 from .tolerance import positioning_tolerance
 
 TRIGGERS = ("in-position", "stability", "manual")
@@ -194,7 +202,12 @@ class PositioningSetup:
 
 
 def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> PositioningSetup:
-    """Build and validate a :class:`PositioningSetup` from the TOML structure."""
+    """Build and validate a :class:`PositioningSetup` from the TOML structure; every refusal names ``source``
+    (the set-up file) first."""
+    return naming_source(_positioning_setup, data, source)
+
+
+def _positioning_setup(data: dict[str, Any], source: str) -> PositioningSetup:
     top = _Table(source, "", data)
     kind = top.get("kind", str, "positioning")
     if kind != "positioning":
@@ -281,10 +294,7 @@ def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> 
     )
     if explicit is not None:  # generated targets follow the rule by construction
         span = end - start if end is not None and axis_type == "linear" else None
-        try:
-            check_targets(targets, axis_type, span, allow_nonconforming=allow_nonconforming)
-        except SetupError as exc:
-            raise SetupError(f"{source}: {exc}") from None
+        check_targets(targets, axis_type, span, allow_nonconforming=allow_nonconforming)
     return setup
 
 

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import math
 import tomllib
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from drivers.modbus_link import parse_modbus_url
 from processing.geometry import BlockGeometry, DatumAngles
@@ -298,8 +299,27 @@ def read_toml(path: Path | str) -> dict[str, Any]:
         raise SetupError(f"{path}: not valid TOML ({exc})") from None
 
 
+Built = TypeVar("Built")
+
+
+def naming_source(build: Callable[[dict[str, Any], str], Built], data: dict[str, Any], source: str) -> Built:
+    """``build(data, source)``; a refusal that does not start with ``source`` (the set-up file) gets it, so
+    every message names the file to fix, whichever check (a dataclass's own, the target rules) refused."""
+    try:
+        return build(data, source)
+    except SetupError as exc:
+        text = str(exc)
+        if text.startswith(f"{source}: "):
+            raise
+        raise SetupError(f"{source}: {text}") from None
+
+
 def straightness_setup_from_dict(data: dict[str, Any], source: str = "setup") -> StraightnessSetup:
-    """Build and validate a :class:`StraightnessSetup` from the TOML structure."""
+    """Build and validate a :class:`StraightnessSetup` from the TOML structure; every refusal names ``source``."""
+    return naming_source(_straightness_setup, data, source)
+
+
+def _straightness_setup(data: dict[str, Any], source: str) -> StraightnessSetup:
     top = _Table(source, "", data)
     kind = top.get("kind", str, "straightness")
     if kind != "straightness":

@@ -155,7 +155,7 @@ def test_stability_refuses_cycles_it_cannot_follow(axis: dict, trigger: dict, me
     with pytest.raises(SetupError) as info:
         positioning_setup_from_dict(src)
     text = str(info.value)
-    assert text.startswith('[trigger] mode = "stability" cannot follow this cycle: ') and message in text
+    assert text.startswith('setup: [trigger] mode = "stability" cannot follow this cycle: ') and message in text
     assert "\n" not in text
 
 

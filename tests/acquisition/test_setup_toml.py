@@ -57,6 +57,8 @@ def test_travel_length_gives_whole_steps_plus_datum(travel: float, length: float
         (lambda d: d["block"].update(return_pass="yes"), "return_pass must be a true/false"),
         (lambda d: d.update(sensor={"protocol": "laser-x"}), "protocol 'laser-x' is not supported"),
         (lambda d: d.update(controller={"url": "192.168.0.10:502"}), "must start with modbus-tcp://"),
+        (lambda d: d["block"].update(length_mm=-1.0), "must be a positive length"),
+        (lambda d: d["block"].update(stations=1), "stations must be at least 2"),
     ],
 )
 def test_setup_mistakes_are_one_line_errors(mutate, message: str) -> None:
@@ -65,6 +67,26 @@ def test_setup_mistakes_are_one_line_errors(mutate, message: str) -> None:
     with pytest.raises(SetupError) as info:
         straightness_setup_from_dict(data, "s.toml")
     assert message in str(info.value) and "\n" not in str(info.value)
+    assert str(info.value).startswith("s.toml: ")  # which file to fix, whichever check refused
+
+
+@pytest.mark.parametrize(("axis", "extra", "message"), [
+    ({"runs": 0}, {}, "runs must be at least 1"),
+    ({"overrun_mm": -1.0}, {}, "overrun must be a positive distance"),
+    ({"end_mm": -5.0}, {}, "end_mm > start_mm"),
+    ({"targets_mm": [0.0, 10.0]}, {}, "[axis] targets"),
+    ({}, {"trigger": {"dwell_s": -1.0}}, "[trigger] dwell_s must be a number >= 0"),
+    ({"overrun_mm": 1.0}, {"trigger": {"mode": "stability"}}, "cannot follow this cycle"),
+    ({}, {"environment": {"refractive_index_assumed": 2.0}}, "is not an air index"),
+    ({"type": "rotary", "end_deg": 400.0}, {}, "0 < end_deg - start_deg <= 360"),
+])
+def test_positioning_refusals_name_the_setup_file(axis: dict, extra: dict, message: str) -> None:
+    from acquisition.positioning_setup import positioning_setup_from_dict
+
+    with pytest.raises(SetupError) as info:
+        positioning_setup_from_dict({"kind": "positioning", "axis": {"end_mm": 500.0, **axis}, **extra}, "p.toml")
+    text = str(info.value)
+    assert text.startswith("p.toml: ") and message in text and "\n" not in text and "p.toml" not in text[8:]
 
 
 def test_bad_files(tmp_path: Path) -> None:
