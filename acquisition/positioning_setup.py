@@ -133,7 +133,10 @@ class PositioningSetup:
             raise SetupError(f"[gcode] dialect must be one of {', '.join(DIALECTS)}, got {self.dialect!r}")
         if not (math.isfinite(self.feed_per_min) and self.feed_per_min > 0):
             raise SetupError(f"[axis] feed must be positive, got {self.feed_per_min}")
-        self.stops()  # validates targets, runs and overrun
+        try:
+            self.stops()  # validates targets, runs and overrun
+        except SetupError as exc:  # the cycle's own words name its arguments; the set-up's keys live in [axis]
+            raise SetupError(f"[axis] {str(exc).replace('overrun ', f'overrun_{self.unit} ', 1)}") from None
         if self.trigger.mode == "stability" and (problem := self.stability_problem()):
             raise SetupError(f"[trigger] mode = \"stability\" cannot follow this cycle: {problem}")
 

@@ -71,8 +71,8 @@ def test_setup_mistakes_are_one_line_errors(mutate, message: str) -> None:
 
 
 @pytest.mark.parametrize(("axis", "extra", "message"), [
-    ({"runs": 0}, {}, "runs must be at least 1"),
-    ({"overrun_mm": -1.0}, {}, "overrun must be a positive distance"),
+    ({"runs": 0}, {}, "[axis] runs must be at least 1"),
+    ({"overrun_mm": -1.0}, {}, "[axis] overrun_mm must be a positive distance"),
     ({"end_mm": -5.0}, {}, "end_mm > start_mm"),
     ({"targets_mm": [0.0, 10.0]}, {}, "[axis] targets"),
     ({}, {"trigger": {"dwell_s": -1.0}}, "[trigger] dwell_s must be a number >= 0"),
