@@ -114,7 +114,7 @@ def disagreement(obs: Observations, residual: np.ndarray, sigma: float, alpha: f
     if obs.has("time_min"):
         order = np.argsort(v["time_min"], kind="stable")
         bins = np.empty(obs.n, dtype=int)
-        bins[order] = np.arange(obs.n) * 8 // max(obs.n, 1)
+        bins[order] = np.arange(obs.n) * min(obs.n, 8) // max(obs.n, 1)  # up to 8 groups, none empty
         t = v["time_min"]
         scale, unit = (1.0, "min") if t.max(initial=0) >= 2 else (60.0, "s")
         groupings["time"] = (bins, [f"{t[bins == b].min() * scale:.1f}-{t[bins == b].max() * scale:.1f} {unit}"
