@@ -29,7 +29,7 @@ from .engine import RunEngine, RunOutcome, Subscriber
 from .errors import SetupError, UserError
 from .live import DeviationCallback, HeightCallback, LiveDeviation, LiveProfile
 from .operators import AutoOperator, Operator, TerminalOperator
-from .plans.positioning import positioning_plan, positioning_resume_point
+from .plans.positioning import ARROW, positioning_plan, positioning_resume_point
 from .plans.straightness import ResumePoint, resume_point, straightness_plan
 from .positioning_setup import PositioningSetup, positioning_setup_from_dict
 from .rig import open_controller_rig, open_rig
@@ -334,14 +334,13 @@ class PositioningResult:
     live: LiveDeviation | None = None  # the compensated deviations shown while the run went on
 
 
-def live_deviation_printer(stream: TextIO, unit: str) -> Callable[[dict[str, Any], float, str], None]:
+def live_deviation_printer(stream: TextIO, unit: str) -> DeviationCallback:
     """The terminal line of each new positioning point (values from :class:`LiveDeviation`)."""
     shown = {"um": "µm"}.get(unit, unit)
 
     def show(row: dict[str, Any], deviation: float, label: str) -> None:
-        arrow = "up (+)" if int(row["direction"]) > 0 else "down (-)"
-        print(f"  live: run {int(row['run'])} {arrow} target {int(row['target_index'])}: deviation "
-              f"{deviation:+.3f} {shown} ({label})", file=stream)
+        print(f"  live: run {int(row['run'])} {ARROW[int(row['direction'])]} target {int(row['target_index'])}: "
+              f"deviation {deviation:+.3f} {shown} ({label})", file=stream)
 
     return show
 

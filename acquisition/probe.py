@@ -104,14 +104,13 @@ class Probe:
     environment: XYMD02 | None = None
     environment_name: str = ""
     device_errors: int = 0  # readings in which a device reported an error (not a pass)
-    controller_answered: bool = False
 
     def _fail(self, name: str, exc: DriverError) -> UserError:
         hint = ""
         if name == self.controller_name and self.controller is not None:
+            # open_controller read its status: the controller has answered at this address
             hint = "; " + controller_hint(exc, device_id=self.controller.device_id,
-                                          serial=self.controller.endpoint.startswith("modbus-rtu:"),
-                                          answered=self.controller_answered)
+                                          serial=self.controller.endpoint.startswith("modbus-rtu:"), answered=True)
             hint = hint.replace("[controller] trigger_timeout_s", "--trigger-timeout").replace(
                 "[controller] request_timeout_s", "--request-timeout")
         return UserError(f"{name} did not answer properly: {exc}{hint}")
@@ -130,7 +129,6 @@ class Probe:
                     self.controller.read_status()
             except DriverError as exc:
                 raise self._fail(self.controller_name, exc) from exc
-            self.controller_answered = True
             lines.append(f"{self.controller_name}: {_identity(info)}")
         if self.environment is not None:
             lines.append(f"{self.environment_name}: model=XY-MD02 (no identity query in its register map)")
@@ -162,7 +160,6 @@ class Probe:
                     raise self._fail(self.controller_name, exc2) from exc2
             except DriverError as exc:
                 raise self._fail(self.controller_name, exc) from exc
-            self.controller_answered = True
             lines.append(f"#{index} controller: {body[0]}")
             lines += body[1:]
         if self.environment is not None:

@@ -241,3 +241,29 @@ def test_a_controller_behind_a_gateway_is_probed_at_its_device_id() -> None:
     assert code == 0 and "model=SIM-6DOF-IFM" in lines[0], err
     assert code1 == 2 and lines1 == [] and "Modbus exception 11" in err1
     assert "no device answers at device id 1 behind the gateway: check device_id= in the URL" in err1
+
+
+def test_a_controller_that_answered_the_open_is_not_blamed_on_its_address() -> None:
+    # open_controller reads the status once, so a controller under probe has answered at this address;
+    # a timeout in the identity step (no FC 43/14 identity, the status read checks it answers) is not
+    # an address problem
+    from acquisition.errors import UserError
+    from acquisition.probe import open_probe
+    from acquisition.rig import ControllerTiming
+    from mocks.faults import FaultPlan
+    from mocks.interferometer import DeviceIdentity, InterferometerEmulator, start_controller
+    from mocks.world import Noise, World
+
+    emu = InterferometerEmulator(World(noise=Noise.off()), faults=FaultPlan.parse("controller:drop@2x5"))
+    emu.identity = DeviceIdentity()  # no device identification objects
+    server = start_controller(emu)
+    try:
+        with (open_probe(None, server.url, timing=ControllerTiming(request_timeout_s=0.2)) as p,
+              pytest.raises(UserError) as info):
+            p.identity_lines()
+    finally:
+        server.stop()
+    text = str(info.value)
+    assert emu.faults.requests("controller") == 2  # the open's status read, then the dropped one
+    assert "no response within 0.2 s" in text and "the controller answered before" in text
+    assert "check the controller address" not in text and "\n" not in text
