@@ -273,6 +273,12 @@ def write_export(run_dir: Path | str, options: ExportOptions, out: Path | None =
 
     run, export = export_run(run_dir, options, accept_out_of_range=accept_out_of_range)
     path = out or export_path(run.path, export, options.fmt)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(path, export.text)
+    if path.is_dir():
+        raise UserError(f"--out {path} is a directory; give a file name, "
+                        f"e.g. {path / f'compensation-{options.fmt}{export.suffix}'}")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(path, export.text)
+    except OSError as exc:
+        raise UserError(f"cannot write the table to {path}: {exc.strerror or exc}") from None
     return run, export, path
