@@ -192,11 +192,10 @@ def _mode(o: ExportOptions) -> str:
 
 
 def build_export(result: Any, options: ExportOptions, *, axis: str = "X",
-                 deviations: pd.DataFrame | None = None, cross_validation: bool = True) -> Export:
+                 deviations: pd.DataFrame | None = None) -> Export:
     """Build the controller file for ``options`` from an evaluation ``result``.  ``deviations``
     (the evaluation's columns ``target``, ``direction``, ``run``, ``deviation``) are the measured
-    points the residuals are evaluated on; None: the per-target means only.
-    ``cross_validation`` False skips the leave-one-out refits (``residuals`` stays empty)."""
+    points the residuals are evaluated on; None: the per-target means only."""
     o = options
     if o.fmt not in FORMATS:
         raise UserError(f"unknown format {o.fmt!r}; choose one of {', '.join(FORMATS)}")
@@ -216,8 +215,8 @@ def build_export(result: Any, options: ExportOptions, *, axis: str = "X",
         points = measured_points(d.target, d.mean_up, d.mean_down, deviations)
         assert written.applied is not None
         scores = score_tables(points, tabulate(curves, None), None if grid is None else table, written.applied)
-        residuals = (model_residuals(points, comparison, models=MODEL_NAMES, mode=mode, positions=grid,
-                                     **model_options) if cross_validation else {})
+        residuals = model_residuals(points, comparison, models=MODEL_NAMES, mode=mode, positions=grid,
+                                    **model_options)
     except ValueError as exc:
         raise UserError(f"cannot build the {o.fmt} table: {exc}") from exc
     notes = grid_notes + written.notes
@@ -273,6 +272,12 @@ def write_export(run_dir: Path | str, options: ExportOptions, out: Path | None =
 
     run, export = export_run(run_dir, options, accept_out_of_range=accept_out_of_range)
     path = out or export_path(run.path, export, options.fmt)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(path, export.text)
+    if path.is_dir():
+        raise UserError(f"--out {path} is a directory; give a file name, "
+                        f"e.g. {path / f'compensation-{options.fmt}{export.suffix}'}")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(path, export.text)
+    except OSError as exc:
+        raise UserError(f"cannot write the table to {path}: {exc.strerror or exc}") from None
     return run, export, path

@@ -30,16 +30,13 @@ CSV_DECIMALS = 6
 class Written:
     """A controller file: ``text``, ``notes`` for the user, ``applied`` (the error the controller
     removes, per direction, at the file's positions; backlash folded in as the controller's
-    backlash parameter applies it), ``offset`` (the error the file leaves at every position by
-    design: a table relative to a reference position keeps the error there) and ``resolution``
-    (what the file rounds the values to, for the user)."""
+    backlash parameter applies it) and ``offset_note`` (the error the file leaves at every position
+    by design: a table relative to a reference position keeps the error there)."""
 
     text: str
     notes: list[str] = field(default_factory=list)
     applied: ErrorTable | None = None
-    offset: float = 0.0
     offset_note: str = ""
-    resolution: str = ""
 
 
 def _backlash_note(table: ErrorTable, d: AxisData) -> str:
@@ -54,19 +51,19 @@ def write_table(d: AxisData, o: ExportOptions, table: ErrorTable, axis: str) -> 
                  "BACKLASH is ignored when COMP_FILE is set (reversal is in the table)"]
         text = linuxcnc_comp_text(table, file_type=o.linuxcnc_type, unit_scale=d.unit_scale)
         applied = linuxcnc_applied(table, file_type=o.linuxcnc_type, unit_scale=d.unit_scale)
-        return Written(text, notes, applied, resolution=f"1e-6 {d.position_unit}")
+        return Written(text, notes, applied)
     if o.fmt == "csv":
         e_up, e_dn = (np.array([float(fixed(v, CSV_DECIMALS)) for v in e]) for e in table.directional())
         applied = ErrorTable(table.position, e_up, e_dn, "bidirectional", table.model)
         return Written(csv_text(table, position_unit=d.position_unit, error_unit=d.error_unit,
-                                decimals=CSV_DECIMALS), [], applied, resolution=f"1e-6 {d.error_unit}")
+                                decimals=CSV_DECIMALS), [], applied)
     if o.fmt == "siemens":
         return _siemens(d, o, table, axis)
     return _fanuc(d, o, table, axis)
 
 
 def _siemens(d: AxisData, o: ExportOptions, table: ErrorTable, axis: str) -> Written:
-    values, offset, offset_note = table.error_up, 0.0, ""
+    values, offset_note = table.error_up, ""
     if o.reference_position is not None:
         offset = float(np.interp(o.reference_position, table.position, values))
         values = values - offset
@@ -86,8 +83,7 @@ def _siemens(d: AxisData, o: ExportOptions, table: ErrorTable, axis: str) -> Wri
     )
     removed = siemens_applied_error(values, unit_scale=d.unit_scale, decimals=decimals)
     applied = ErrorTable(table.position, removed, removed, "backlash", table.model, table.backlash)
-    return Written(text, notes, applied, offset, offset_note,
-                   f"1e-{decimals} {d.position_unit}, backlash {-table.backlash:.3f} {d.error_unit} as reported")
+    return Written(text, notes, applied, offset_note)
 
 
 def _fanuc(d: AxisData, o: ExportOptions, table: ErrorTable, axis: str) -> Written:
@@ -118,5 +114,4 @@ def _fanuc(d: AxisData, o: ExportOptions, table: ErrorTable, axis: str) -> Writt
     offset = float(np.interp(ref, table.position, reference_curve))
     offset_note = (f"Fanuc corrections are relative to the reference position {ref:g} mm: the error there "
                    f"({offset:+.3f} um) stays in every residual (in max|r| and RMS, not in range, E or M)")
-    return Written(fanuc_text(pitch, axis=axis, note=note), notes, applied, offset, offset_note,
-                   f"counts of {count_um:g} um")
+    return Written(fanuc_text(pitch, axis=axis, note=note), notes, applied, offset_note)

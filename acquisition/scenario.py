@@ -13,7 +13,6 @@ naming the file and the key.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -25,6 +24,7 @@ from processing.effects import KINDS, Effect, make_effect
 from .errors import SetupError
 from .positioning_setup import PositioningSetup, positioning_setup_from_dict
 from .setup import StraightnessSetup, _Table, read_toml, straightness_setup_from_dict
+from .setup_file import toml_string
 
 
 @dataclass(frozen=True)
@@ -203,7 +203,7 @@ def _toml_value(v: Any) -> str:
         return repr(float(v)) if math.isfinite(v) else "nan"
     if isinstance(v, list | tuple):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    return json.dumps(str(v), ensure_ascii=False)
+    return toml_string(str(v))
 
 
 def model_toml(kind: str, effects: list[tuple[Effect, str]], header: list[str]) -> str:

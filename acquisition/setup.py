@@ -398,10 +398,7 @@ def _straightness_setup(data: dict[str, Any], source: str) -> StraightnessSetup:
     scenario = scenario_path(sim.get("scenario", str, ""), source)
     au = top.table("auto")
     a = HandsFreeSetup()
-    try:
-        auto = HandsFreeSetup(**{f.name: au.get(f.name, float, getattr(a, f.name)) for f in fields(a)})
-    except SetupError as exc:
-        raise SetupError(f"{source}: {exc}") from None
+    auto = HandsFreeSetup(**{f.name: au.get(f.name, float, getattr(a, f.name)) for f in fields(a)})
     for t in (top, blk, geo, sen, ctl, wu, va, sim, au):
         t.check_unknown()
     return StraightnessSetup(

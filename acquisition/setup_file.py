@@ -7,6 +7,7 @@ loader's; :func:`setup_toml_text` writes the structure as a set-up file.
 
 from __future__ import annotations
 
+import json
 import math
 from typing import Any
 
@@ -32,6 +33,12 @@ def setup_from_dict(data: dict[str, Any], source: str = "setup") -> Straightness
     return positioning_setup_from_dict(data, source)
 
 
+def toml_string(text: str) -> str:
+    """``text`` as a TOML basic string: JSON's escapes are TOML's (control characters as \\uXXXX,
+    which TOML requires of every one but tab), and DEL, which JSON leaves as it is."""
+    return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")
+
+
 def _value(v: Any, where: str) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
@@ -42,8 +49,7 @@ def _value(v: Any, where: str) -> str:
             raise SetupError(f"{where}: {v} cannot be written to a set-up file")
         return repr(v)
     if isinstance(v, str):
-        escaped = v.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\t", "\\t")
-        return f'"{escaped}"'
+        return toml_string(v)
     if isinstance(v, list | tuple):
         return "[" + ", ".join(_value(x, where) for x in v) + "]"
     raise SetupError(f"{where}: a {type(v).__name__} cannot be written to a set-up file")

@@ -124,3 +124,13 @@ def test_zero_tolerance_is_the_spline_through_every_target(run_dir: Path, tmp_pa
     assert res.returncode == 0, res.stderr
     spline = next(r for r in json.loads(res.stdout)["comparison"] if r["model"] == "spline")
     assert spline["table_points"] == len(TARGETS_MM) and spline["E_um"] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_an_unwritable_out_is_a_one_line_error(run_dir: Path, tmp_path: Path) -> None:
+    # an --out that is a directory, or under a file, ended in a traceback (IsADirectoryError, FileExistsError)
+    (tmp_path / "adir").mkdir()
+    one_line_error(guideway("export", run_dir, "--format", "csv", "--out", tmp_path / "adir"),
+                   f"--out {tmp_path / 'adir'} is a directory; give a file name")
+    (tmp_path / "afile").write_text("", encoding="utf-8")
+    one_line_error(guideway("export", run_dir, "--format", "csv", "--out", tmp_path / "afile" / "t.csv"),
+                   f"cannot write the table to {tmp_path / 'afile' / 't.csv'}")

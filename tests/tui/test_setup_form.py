@@ -28,6 +28,14 @@ def test_a_string_with_quotes_and_a_nan_value() -> None:
         setup_toml_text({"block": {"length_mm": float("nan")}})
 
 
+def test_every_control_character_reads_back() -> None:
+    # a carriage return (text pasted from Windows) or another control character in notes was written
+    # as is, and TOML forbids it in a string: the saved set-up could not be read back
+    text = "line 1\r\nline 2\x00\x1b[0m\x7f é µ \U0001F600"
+    assert tomllib.loads(setup_toml_text({"notes": text, "machine": {"name": text}})) == {
+        "notes": text, "machine": {"name": text}}
+
+
 def _fields(groups):  # noqa: ANN001, ANN202
     return [f for _, g in groups for f in g]
 
