@@ -42,6 +42,3 @@ class Scripted:
         if isinstance(msg, m.Instruct | m.Prompt):
             return msg.choices[0]
         return 0.0 if isinstance(msg, m.OpenRun) else None
-
-    def of(self, kind: type) -> list[Any]:
-        return [x for x in self.msgs if isinstance(x, kind)]

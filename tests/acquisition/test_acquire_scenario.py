@@ -17,7 +17,9 @@ from acquisition.diagnose import diagnose_run
 from acquisition.positioning_setup import positioning_setup_from_dict
 from acquisition.runstore import load_run
 from acquisition.setup import straightness_setup_from_dict
-from tui.cli import main
+
+from ..cli import guideway, one_line_error
+from ..setups import straightness_setup_text
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -93,10 +95,7 @@ def test_straightness_scenario_behind_the_pty_sensor(tmp_path: Path) -> None:
     scenario = tmp_path / "block.toml"
     scenario.write_text('kind = "straightness"\n[block]\nlength_mm = 100.0\nstations = 5\n'
                         '[noise]\nplacement_um = 2.0\n[[effect]]\ntype = "block_length"\num_per_block = 15.0\n')
-    text = (ROOT / "docs" / "setup-straightness.toml").read_text()
-    text = text.replace("stations = 20 ", "stations = 8 ").replace("enabled = true", "enabled = false")
-    text = text.replace("samples_per_reading = 5", "samples_per_reading = 2")
-    text = text.replace("return_pass = false", "return_pass = true")
+    text = straightness_setup_text(stations=8, samples=2, return_pass=True)
     setup = straightness_setup_from_dict(tomllib.loads(text), "setup")
     res = run_straightness(setup, tmp_path / "run", simulate=SimOptions(seed=1, scenario=str(scenario)), auto=True,
                            stream=io.StringIO())
@@ -111,18 +110,15 @@ def test_straightness_scenario_behind_the_pty_sensor(tmp_path: Path) -> None:
     assert np.isfinite(pts["sensor_mm"]).all()
 
 
-def test_scenario_of_the_wrong_kind_is_a_one_line_error(tmp_path: Path, capsys) -> None:
-    (tmp_path / "scenario.toml").write_text(POSITIONING_SCENARIO)
-    text = (ROOT / "docs" / "setup-straightness.toml").read_text().replace("enabled = true", "enabled = false")
-    (tmp_path / "setup.toml").write_text(text)
-    code = main(["acquire", "straightness", "--setup", str(tmp_path / "setup.toml"), "--out", str(tmp_path / "run"),
-                 "--simulate", "--auto", "--scenario", str(tmp_path / "scenario.toml")])
-    err = capsys.readouterr().err
-    assert code == 2 and "is a positioning scenario; this is a straightness run" in err
+def test_scenario_of_the_wrong_kind_is_a_one_line_error(tmp_path: Path, setup_file: Path) -> None:
+    scenario = tmp_path / "scenario.toml"
+    scenario.write_text(POSITIONING_SCENARIO)
+    one_line_error(guideway("acquire", "straightness", "--setup", setup_file, "--out", tmp_path / "run", "--simulate",
+                            "--auto", "--scenario", scenario),
+                   "is a positioning scenario; this is a straightness run")
     assert not (tmp_path / "run").exists()
-    code = main(["acquire", "straightness", "--setup", str(tmp_path / "setup.toml"), "--out", str(tmp_path / "run"),
-                 "--scenario", str(tmp_path / "scenario.toml")])
-    assert code == 2 and "--scenario needs --simulate" in capsys.readouterr().err
+    one_line_error(guideway("acquire", "straightness", "--setup", setup_file, "--out", tmp_path / "run",
+                            "--scenario", scenario), "--scenario needs --simulate")
 
 
 def test_the_simulation_table_of_a_straightness_setup_is_checked() -> None:

@@ -28,10 +28,10 @@ ROOT = Path(__file__).resolve().parents[2]
 BEAM = "beam interrupted: check the optics alignment and that nothing crosses the beam"
 
 
-def straightness(**tables: dict[str, Any]) -> StraightnessSetup:
-    """docs/setup-straightness.toml with 4 stations, 2 samples, no warm-up, and ``tables`` merged in."""
+def straightness(stations: int = 4, **tables: dict[str, Any]) -> StraightnessSetup:
+    """docs/setup-straightness.toml with ``stations`` stations, 2 samples, no warm-up, and ``tables`` merged in."""
     d = tomllib.loads((ROOT / "docs" / "setup-straightness.toml").read_text())
-    d["block"].update(stations=4, samples_per_reading=2)
+    d["block"].update(stations=stations, samples_per_reading=2)
     d["warmup"]["enabled"] = False
     for name, values in tables.items():
         d.setdefault(name, {}).update(values)

@@ -23,6 +23,7 @@ from processing.decoupling import decouple
 from processing.geometry import DatumAngles
 from tui.cli import main
 
+from ..cli import guideway, one_line_error
 from .html_report import parse
 
 TOML_GEOMETRY = {"mirror_mm": [50, 110, 0], "sensor_mm": [150, 0, 40]}
@@ -83,7 +84,7 @@ def test_a_simulated_run_uses_the_measured_angles(tmp_path: Path, capsys: pytest
     assert "datum angles" not in doc  # first-order and patent do not use them
 
 
-def test_bad_angles_in_run_json_are_refused_by_process(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_bad_angles_in_run_json_are_refused_by_process(tmp_path: Path) -> None:
     res = run_straightness(demo_setup(stations=3, samples=1), tmp_path / "run",
                            simulate=SimOptions(seed=1, noise=False), auto=True, stream=io.StringIO())
     assert res.outcome.exit_status == "success"
@@ -91,10 +92,8 @@ def test_bad_angles_in_run_json_are_refused_by_process(tmp_path: Path, capsys: p
     meta = json.loads(meta_path.read_text())
     meta["setup"]["geometry"]["datum_angles_urad"] = {"pitch": 5e5}
     meta_path.write_text(json.dumps(meta))
-    assert main(["process", str(tmp_path / "run"), "--no-write", "--mc-trials", "0"]) == 2
-    err = capsys.readouterr().err
-    lines = [ln for ln in err.splitlines() if ln.startswith("guideway: error:")]
-    assert len(lines) == 1 and "setup.geometry" in lines[0] and "check the units" in lines[0], err
+    one_line_error(guideway("process", tmp_path / "run", "--no-write", "--mc-trials", "0"), "setup.geometry",
+                   "check the units")
 
 
 def test_live_profile_of_a_resumed_run_uses_the_first_step_on_disk(tmp_path: Path) -> None:

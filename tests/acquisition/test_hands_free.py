@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import io
 import threading
-import tomllib
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
@@ -19,23 +18,20 @@ from acquisition import messages as m
 from acquisition.acquire import SimOptions, run_straightness
 from acquisition.plans.straightness import straightness_plan
 from acquisition.runstore import load_run
-from acquisition.setup import StraightnessSetup, straightness_setup_from_dict
+from acquisition.setup import StraightnessSetup
 from acquisition.simulation import SimulatedRig, start_simulated_rig
 from drivers.readings import ControllerStatus, InterferometerReading
 
 from ..waiting import wait_for
 from .plan_driver import Scripted, drive
+from .test_controller_recovery import straightness
 
-ROOT = Path(__file__).resolve().parents[2]
 OK = ControllerStatus(True, False, True, False, True, 1, 0, "", 0b10101)
 
 
 def setup(stations: int, **auto: float) -> StraightnessSetup:
-    d = tomllib.loads((ROOT / "docs" / "setup-straightness.toml").read_text())
-    d["block"].update(stations=stations, samples_per_reading=2)
-    d["warmup"]["enabled"] = False
-    d["auto"] = {"station_timeout_s": 10.0, "still_s": 0.3, "still_um": 2.0, "poll_s": 0.05, **auto}
-    return straightness_setup_from_dict(d, "setup.toml")
+    return straightness(stations, auto={"station_timeout_s": 10.0, "still_s": 0.3, "still_um": 2.0, "poll_s": 0.05,
+                                        **auto})
 
 
 # the end-to-end runs: the block must rest for 0.8 s, eight times the technician's 0.1 s steps, so that

@@ -12,6 +12,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def test_hardware_checks_pass_against_the_simulated_rig(sim_rig, tmp_path: Path) -> None:
     # a separate pytest (the point: the options a real rig is given); its temporary files in this test's
+    # tmp_path (--basetemp), not in the session's TMPDIR, which must be left as it was found
     res = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--basetemp", str(tmp_path / "basetemp"),
          "-m", "hardware",
