@@ -122,8 +122,7 @@ def test_simulate_is_reproducible_by_seed(tmp_path: Path) -> None:
 def test_bad_scenarios_are_one_line_errors(tmp_path: Path, text: str, fragment: str) -> None:
     path = tmp_path / "bad.toml"
     path.write_text(text)
-    code, _, err = guideway("simulate", str(path), "--out", str(tmp_path / "run"))
-    assert code == 2 and err.count("guideway: error:") == 1 and fragment in err, err
+    one_line_error(guideway("simulate", str(path), "--out", str(tmp_path / "run")), fragment)
     assert not (tmp_path / "run").exists()
 
 
@@ -141,16 +140,13 @@ def test_a_negative_seed_is_a_one_line_error(tmp_path: Path, command: list[str])
 def test_bad_diagnose_input_is_a_one_line_error(tmp_path: Path) -> None:
     scenario = tmp_path / "s.toml"
     scenario.write_text(STRAIGHTNESS)
-    guideway("simulate", str(scenario), "--out", str(tmp_path / "run"))
+    assert guideway("simulate", str(scenario), "--out", str(tmp_path / "run"))[0] == 0
     model = tmp_path / "m.toml"
     model.write_text('kind = "positioning"\n[[effect]]\ntype = "backlash"\nfree = true\n')
-    code, _, err = guideway("diagnose", str(tmp_path / "run"), "--model", str(model))
-    assert code == 2 and "is a positioning model" in err and "straightness run" in err
+    one_line_error(guideway("diagnose", str(tmp_path / "run"), "--model", str(model)), "is a positioning model",
+                   "straightness run")
     model.write_text('kind = "straightness"\n[[effect]]\ntype = "lever_arm"\nerror_mm = "x"\n')
-    code, _, err = guideway("diagnose", str(tmp_path / "run"), "--model", str(model))
-    assert code == 2 and "error_mm must be a number" in err
-    code, _, err = guideway("diagnose", str(tmp_path / "run"), "--model", str(model))
-    assert code == 2 and "error_mm must be a number" in err
+    one_line_error(guideway("diagnose", str(tmp_path / "run"), "--model", str(model)), "error_mm must be a number")
     # a model effect the run cannot evaluate (an imported run without times): no silent NaN
     data = tmp_path / "data.csv"
     data.write_text("run,direction,target_mm,reading_mm\n" + "".join(
@@ -158,13 +154,13 @@ def test_bad_diagnose_input_is_a_one_line_error(tmp_path: Path) -> None:
     assert guideway("import", "positioning", str(data), "--out", str(tmp_path / "imported"),
                    "--compensated")[0] == 0
     model.write_text('kind = "positioning"\n[[effect]]\ntype = "thermal_drift"\nfree = true\n')
-    code, out, err = guideway("diagnose", str(tmp_path / "imported"), "--model", str(model))
-    assert code == 2 and err.count("guideway: error:") == 1 and "thermal_drift cannot be evaluated" in err, (out, err)
-    assert "no time_s recorded" in err and out == ""
-    code, _, err = guideway("diagnose", str(tmp_path / "nothing"))
-    assert code == 2 and "no such run directory" in err
-    code, _, err = guideway("diagnose", str(tmp_path / "run"), "--model", str(tmp_path / "missing.toml"))
-    assert code == 2 and err.startswith("guideway: error:")
+    res = guideway("diagnose", str(tmp_path / "imported"), "--model", str(model))
+    one_line_error(res, "thermal_drift cannot be evaluated", "no time_s recorded")
+    assert res.stdout == ""
+    one_line_error(guideway("diagnose", str(tmp_path / "nothing")), "no such run directory")
+    res = guideway("diagnose", str(tmp_path / "run"), "--model", str(tmp_path / "missing.toml"))
+    one_line_error(res)
+    assert res.stderr.startswith("guideway: error:")
 
 
 def test_documented_examples_load() -> None:

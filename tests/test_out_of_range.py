@@ -20,12 +20,7 @@ V1_RUN = Path(__file__).resolve().parent / "data" / "runs" / "v1-straightness"
 def straightness_run(tmp_path: Path, station: int, column: str, value: str) -> Path:
     run = tmp_path / "run"
     shutil.copytree(V1_RUN, run)
-    lines = (run / "points.csv").read_text(encoding="utf-8").splitlines()
-    header = lines[0].split(",")
-    cells = lines[station + 1].split(",")
-    cells[header.index(column)] = value
-    lines[station + 1] = ",".join(cells)
-    (run / "points.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    set_cell(run, station + 1, column, value)  # row 1 is station 0
     return run
 
 

@@ -14,6 +14,8 @@ import pytest
 
 from tui.cli import main
 
+from .setups import replace_once
+
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "volumetric.md"
 
@@ -29,8 +31,8 @@ def example_blocks() -> list[str]:
 def x_setup() -> str:
     """docs/setup-positioning.toml changed as the page says: 0 … 400 mm, runs = 2, its [simulation]."""
     text = (ROOT / "docs" / "setup-positioning.toml").read_text(encoding="utf-8")
-    text = re.sub(r"(?m)^end_mm = 1000\.0", "end_mm = 400.0", text)
-    text = re.sub(r"(?m)^runs = 5 ", "runs = 2 ", text)
+    text = replace_once(text, "\nend_mm = 1000.0 ", "\nend_mm = 400.0 ")
+    text = replace_once(text, "\nruns = 5 ", "\nruns = 2 ")
     simulation = ("[simulation]\npitch_amplitude = 3.0\npitch_wavelength = 300.0\nslope_per_m = 10.0\n"
                   "backlash = 2.0\nperiodic = 0.0\nthermal_per_m_per_h = 0.0\nnoise = 0.1\n")
     return text[: text.index("[simulation]")] + simulation

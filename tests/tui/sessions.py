@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 from pathlib import Path
 from typing import Any
@@ -11,6 +9,7 @@ from typing import Any
 import pandas as pd
 
 from acquisition.messages import Instruct, Prompt
+from tests.cli import guideway
 from tests.waiting import wait_for_app
 
 STRAIGHTNESS = {
@@ -90,12 +89,9 @@ def assert_same_points(tui_run: Path, auto_run: Path) -> None:
 
 def process_json(run_dir: Path) -> dict[str, Any]:
     """What ``guideway process RUN_DIR --json --no-write`` prints."""
-    from tui.cli import main
-
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        assert main(["process", str(run_dir), "--json", "--no-write"]) == 0
-    return json.loads(out.getvalue())
+    res = guideway("process", run_dir, "--json", "--no-write")
+    assert res.returncode == 0, res.stderr
+    return json.loads(res.stdout)
 
 
 def widget_text(app: Any, selector: str) -> str:
