@@ -47,6 +47,20 @@ def test_malformed_run_directory(tmp_path: Path) -> None:
     one_line_error(guideway("process", str(tmp_path)), "run.json", "not valid JSON")
 
 
+def test_results_that_cannot_be_written_are_a_one_line_error(demo_run: Path, tmp_path: Path) -> None:
+    # RUN/results is a file (as good as a full disk or a read-only share): one line naming it, no traceback
+    import shutil
+
+    straightness = tmp_path / "straightness"
+    shutil.copytree(demo_run, straightness, ignore=shutil.ignore_patterns("results"))
+    positioning = tmp_path / "positioning"
+    shutil.copytree(Path(__file__).parent / "data" / "tui-runs" / "positioning-x", positioning)
+    for run in (straightness, positioning):
+        (run / "results").write_text("not a folder\n")
+    one_line_error(guideway("process", straightness), str(straightness / "results"))
+    one_line_error(guideway("export", positioning, "--format", "csv"), str(positioning / "results"))
+
+
 def test_usage_errors_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as info:
         main(["demo", "--stations", "many"])

@@ -49,8 +49,8 @@ def plan_info(setup: StraightnessSetup | PositioningSetup, points_before: int = 
     from .session import RunPlanInfo
 
     if isinstance(setup, StraightnessSetup):
-        return RunPlanInfo("straightness", len(setup.steps()), setup.stations, "mm", setup.return_pass,
-                           setup.warmup.enabled, setup.block_length_mm, points_before)
+        return RunPlanInfo("straightness", len(setup.steps()), setup.stations, "mm", setup.warmup.enabled,
+                           setup.block_length_mm, points_before)
     return RunPlanInfo("positioning", len(setup.measured_stops()), 0, setup.unit, points_before=points_before,
                        datum=setup.datum)
 

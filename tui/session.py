@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from acquisition.acquire import SimOptions, acquire
-from acquisition.engine import RunEngine, RunOutcome
+from acquisition.engine import RunEngine
 from acquisition.errors import EXPECTED_ERRORS
 from acquisition.messages import Instruct, Prompt
 from acquisition.monitor import LiveMonitor, LiveReading
@@ -69,7 +69,6 @@ class RunPlanInfo:
     total_steps: int  # straightness: (pass, station) steps; positioning: measured stops
     stations: int = 0
     unit: str = "mm"  # positioning: mm or deg
-    return_pass: bool = False
     warmup: bool = False
     step_mm: float = 0.0  # straightness: block length (x of station k = k * step_mm)
     points_before: int = 0  # resumed run: points already on disk
@@ -107,9 +106,6 @@ class SessionView:
     skipped: int = 0  # steps skipped without a point (run.json ``skipped``), resumed ones included
     state: str = "connecting"  # connecting, running, paused, finished, failed
     log: collections.deque[str] = field(default_factory=lambda: collections.deque(maxlen=LOG_LINES))
-    faults: list[str] = field(default_factory=list)
-    outcome: RunOutcome | None = None
-    error: str = ""
     started: bool = False
 
     @property
@@ -233,7 +229,6 @@ class RunSession:
         elif isinstance(message, RunDocument):
             self._apply_document(message.name, message.doc)
         elif isinstance(message, RunEnded):
-            v.outcome, v.error = message.outcome, message.error
             v.question = None
             v.state = "failed" if message.outcome is None or message.outcome.exit_status == "fail" else "finished"
 
@@ -255,7 +250,5 @@ class RunSession:
             m = doc["match"]
             v.rows = [r for r in v.rows if any(r.get(k) != value for k, value in m.items())]
             v.heights.pop((int(m.get("pass", 0)), int(m["station"])), None)
-        elif name == "annotate" and doc.get("key") == "faults":
-            v.faults = list(doc["value"])
         elif name == "annotate" and doc.get("key") == "skipped":
             v.skipped = len(doc["value"])

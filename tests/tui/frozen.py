@@ -4,7 +4,6 @@ points and questions that do not change with time (no clock, uid or temporary pa
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from acquisition.messages import Instruct, Prompt
 from acquisition.monitor import LiveReading
@@ -112,7 +111,3 @@ FAULT_TEXT = ("displacement sensor (keyence-lkg on SENSOR): no reply ending in b
 FAULT = Prompt(f"Device fault: {FAULT_TEXT}. Check the device, its cable and power, then retry (the tool "
                "reconnects and repeats the step), or abort the run.", ("retry", "abort"), key="fault",
                fault=FAULT_TEXT)
-
-
-def source_of(kind: str) -> dict[str, Any]:
-    return STRAIGHTNESS if kind == "straightness" else POSITIONING

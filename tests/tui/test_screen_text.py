@@ -292,3 +292,27 @@ def test_the_warm_up_override_is_offered_only_with_a_warm_up() -> None:
                           check=lambda app: screen_lines(app)[-1])
     assert " override warm-up " in with_warmup
     assert " override warm-up " not in without and " abort " in without
+
+
+def test_a_results_file_that_cannot_be_written_is_reported(tmp_path: Path) -> None:
+    # RUN/results is a file here: the results, a table and the report cannot be written (as on a full disk or
+    # a read-only share); each key says so in a notification instead of doing nothing
+    run = tmp_path / "positioning-x"
+    shutil.copytree(ROOT / RUNS / "positioning-x", run)
+    (run / "results").write_text("not a directory\n")
+
+    async def main() -> list[tuple[str, str]]:
+        app = GuidewayApp(runs_dir=tmp_path, start="runs")
+        async with app.run_test(size=(80, 24)) as pilot:
+            app.open_results(run)
+            await wait_for_app(pilot, lambda: getattr(app.screen, "evaluation", None) is not None, what="results")
+            for key in "w1h":
+                n = len(app._notifications)
+                await pilot.press(key)
+                await wait_for_app(pilot, lambda n=n: len(app._notifications) == n + 1, what=f"the error of {key}")
+            return [(n.severity, n.message) for n in app._notifications]
+
+    shown = asyncio.run(main())
+    assert len(shown) == 3 and all(severity == "error" for severity, _ in shown), shown
+    assert all(str(run / "results") in message for _, message in shown), shown
+    assert (run / "results").read_text() == "not a directory\n"

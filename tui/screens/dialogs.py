@@ -91,7 +91,7 @@ class HelpScreen(ModalScreen[None]):
     def compose(self) -> ComposeResult:
         rows = []
         seen = set()
-        for b in [*getattr(self.source, "BINDINGS", []), *getattr(self.source, "HELP_KEYS", []), *self.app_bindings]:
+        for b in [*getattr(self.source, "BINDINGS", []), *self.app_bindings]:
             if not isinstance(b, Binding) or not b.description or b.description in seen:
                 continue
             seen.add(b.description)

@@ -208,7 +208,7 @@ class ResultsScreen(Screen):
     def _written(self, write: Any) -> None:
         try:
             path = write()
-        except EXPECTED_ERRORS as exc:
+        except (*EXPECTED_ERRORS, OSError) as exc:  # OSError: a full disk, a read-only folder
             self.app.call_from_thread(self.notify, str(exc), severity="error", markup=False)
             return
         path = Path(path)  # shown relative to the run directory (the title names it) where it is inside it

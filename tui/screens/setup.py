@@ -242,12 +242,8 @@ class SetupScreen(Screen):
         self.app.call_from_thread(self._prepared, tuple(SENSOR_DRIVERS), source)
 
     def _prepared(self, protocols: tuple[str, ...], source: dict[str, Any]) -> None:
-        self.protocols, self.source = protocols, source
-        radios = self.query_one("#run-kind", RadioSet)
-        kind = run_kind_of(self.source)
-        for b in radios.query(RadioButton):
-            b.value = b.name == kind
-        self.build_fields()
+        self.protocols = protocols
+        self.load(source)
 
     def fields(self) -> list[Field]:
         return [f for _, group in self.groups() for f in group]
