@@ -1,7 +1,7 @@
-"""Workflows as plans (generators of messages) run by a small engine.
+"""Recording a run: from set-up file to run directory.
 
-Plans never touch hardware or UI; the engine executes their messages against
-devices, asks an injected operator, and hands records to subscribers (the run
-store, live processing, the UI).  Only :mod:`acquisition.simulation` imports
-``mocks`` (the composition root of a simulated session).
+Workflows are plans (generators of messages) run by a small engine.  Plans never touch hardware or
+UI; the engine executes their messages against devices (:mod:`.rig`), asks an injected operator,
+and hands records to subscribers (the run store of ``saved_runs``, live processing, the UI).  Set-up
+files are read in :mod:`.setup`; only :mod:`.simulated` imports ``mocks`` (the simulated rig).
 """

@@ -23,31 +23,24 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from drivers.modbus_link import parse_modbus_url
+from saved_runs.errors import SetupError, UserError
+from saved_runs.store.writer import RunStore
 
 from . import inposition  # noqa: F401 - registers the in-position message handlers
 from .engine import RunEngine, RunOutcome, Subscriber
-from .errors import SetupError, UserError
 from .live import DeviationCallback, HeightCallback, LiveDeviation, LiveProfile
 from .operators import AutoOperator, Operator, TerminalOperator
 from .plans.positioning import ARROW, positioning_plan, positioning_resume_point
 from .plans.straightness import ResumePoint, resume_point, straightness_plan
-from .positioning_setup import PositioningSetup, positioning_setup_from_dict
 from .rig import open_controller_rig, open_rig
-from .runstore import RunStore
-from .scenario import Scenario, load_scenario
-from .setup import StraightnessSetup, straightness_setup_from_dict, straightness_setup_from_run
-from .simulation import (
-    REQUESTS_PER_SAMPLE,
-    SimulatedMachine,
-    SimulatedRig,
-    SimulatedTransmitter,
-    fault_report,
-    refuse_faults_that_cannot_fire,
-    sensor_emulator,
-    start_simulated_machine,
-    start_simulated_rig,
-    start_simulated_transmitter,
-)
+from .setup.positioning import PositioningSetup, positioning_setup_from_dict
+from .setup.stored import resumed_setup
+from .setup.straightness import StraightnessSetup, straightness_setup_from_dict
+from .simulated.faults import fault_report, refuse_faults_that_cannot_fire
+from .simulated.machine import SimulatedMachine, start_simulated_machine
+from .simulated.rig import SimulatedRig, SimulatedTransmitter, start_simulated_rig, start_simulated_transmitter
+from .simulated.scenario import Scenario, load_scenario
+from .simulated.sensors import REQUESTS_PER_SAMPLE, sensor_emulator
 
 
 def _device_id(url: str) -> int:
@@ -121,7 +114,7 @@ def _engine_context(hook: EngineHook | None, engine: RunEngine) -> AbstractConte
 @dataclass(frozen=True)
 class SimOptions:
     """A simulated rig: world seed, instrument noise on/off, injected faults (mocks/faults.py), and the
-    scenario file whose effects the simulated devices apply (acquisition/scenario.py; None: the set-up's
+    scenario file whose effects the simulated devices apply (acquisition/simulated/scenario.py; None: the set-up's
     ``[simulation] scenario``, if any)."""
 
     seed: int = 0
@@ -183,12 +176,8 @@ def _open_store(setup: StraightnessSetup | None, out: Path, resume: bool
     if store.meta.get("kind") != "straightness":
         raise UserError(f"{out}: a {store.meta.get('kind')} run; resume it with guideway acquire "
                         f"{store.meta.get('kind')}")
-    stored = straightness_setup_from_run(store.meta)
-    if setup is not None and setup.to_run_setup() | {"devices": {}} != stored.to_run_setup() | {"devices": {}}:
-        raise SetupError(f"{out}: --setup differs from the set-up the run was started with; "
-                         "resume without --setup (device endpoints may differ)")
-    if setup is not None:  # only the device endpoints may change (a different port after a reboot)
-        stored = replace(stored, devices=setup.devices)
+    stored = resumed_setup(store.meta, out, setup)
+    assert isinstance(stored, StraightnessSetup)
     rp = resume_point(store.meta, store.loaded_points, stored.steps())
     return store, stored, rp
 
@@ -383,10 +372,8 @@ def run_positioning(
         if store.meta.get("kind") != "positioning":
             raise UserError(f"{out}: a {store.meta.get('kind')} run; resume it with guideway acquire "
                             f"{store.meta.get('kind')}")
-        if setup is None:
-            if "setup_source" not in store.meta:
-                raise SetupError(f"{out}: run.json holds no setup_source; resume with --setup")
-            setup = positioning_setup_from_dict(store.meta["setup_source"], f"{out}/run.json setup_source")
+        setup = resumed_setup(store.meta, out, setup)
+        assert isinstance(setup, PositioningSetup)
         _check_hands_free(setup, auto, simulate, operator)
         rp = positioning_resume_point(store.meta, store.loaded_points, setup.measured_stops())
     else:

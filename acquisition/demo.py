@@ -15,13 +15,15 @@ from pathlib import Path
 from typing import TextIO
 
 from processing.straightness import StraightnessResult
+from saved_runs.errors import UserError
+from saved_runs.evaluation.evaluate import process_run_dir
 
 from .acquire import SimOptions, run_straightness
 from .engine import RunOutcome
-from .errors import UserError
-from .evaluate import process_run_dir
-from .setup import DeviceSetup, StraightnessSetup
-from .simulation import SimulatedRig, default_block
+from .setup.shared_tables import DeviceSetup
+from .setup.straightness import StraightnessSetup
+from .simulated.rig import SimulatedRig
+from .simulated.sensors import default_block
 
 
 @dataclass(frozen=True)

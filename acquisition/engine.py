@@ -47,8 +47,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from drivers.errors import DeviceError, DriverError, with_context
+from saved_runs.errors import UserError
 
-from .errors import UserError
 from .messages import (
     DEVICE_MESSAGES,
     Annotate,

@@ -1,7 +1,7 @@
 """Part programs for ISO 230-2 positioning cycles (``guideway gcode``).
 
 The program moves the axis through exactly the stops of the set-up's cycle
-(:func:`acquisition.iso230.cycle`): absolute straight moves at the set-up's
+(:func:`acquisition.setup.cycles.cycle`): absolute straight moves at the set-up's
 feed, overrun stops without dwell, and at each target a dwell followed by the
 trigger mode's hand-over:
 
@@ -24,7 +24,7 @@ cycle order) so a resumed run can restart the program at the right block.
 
 from __future__ import annotations
 
-from .positioning_setup import PositioningSetup
+from .setup.positioning import PositioningSetup
 
 INPOS_MCODE = 100
 INPOS_ALARM = 1  # Fanuc macro alarm #3000 = 1: alarm 3001

@@ -21,8 +21,8 @@ from drivers.errors import DeviceError, DriverError
 from drivers.interferometer import InterferometerController
 from drivers.readings import ControllerStatus, DisplacementReading, InterferometerReading
 from drivers.sensor import DisplacementSensor
+from saved_runs.errors import UserError
 
-from .errors import UserError
 from .rig import (
     DEFAULT_SENSOR_OPTIONS,
     DEFAULT_TIMING,

@@ -13,20 +13,14 @@ from drivers.environment.xymd02 import XYMD02
 from drivers.errors import CompletionTimeout, DeviceError, DriverError, TransportError, TransportTimeout
 from drivers.interferometer import InterferometerController
 from drivers.interferometer.codec import decode_value
-from drivers.keyence_lkg import KeyenceLKG
 from drivers.keyence_lkg.driver import check_output
-from drivers.me_ild1420 import ILD1420
-from drivers.panasonic_hlg1 import PanasonicHLG1
 from drivers.readings import InterferometerReading
 from drivers.sensor import DisplacementSensor
+from drivers.sensor_families import SENSOR_DRIVERS
+from saved_runs.errors import UserError
 
-from .errors import UserError
-
-SENSOR_DRIVERS: dict[str, type[DisplacementSensor]] = {
-    "keyence-lkg": KeyenceLKG,
-    "panasonic-hlg1": PanasonicHLG1,
-    "me-ild1420": ILD1420,
-}
+#: The sensor protocols a set-up may name (what the front ends offer).
+SENSOR_PROTOCOLS: tuple[str, ...] = tuple(SENSOR_DRIVERS)
 #: Sensor protocols whose driver takes a controller series and an output number ([sensor] series / output).
 SENSOR_OUTPUTS = {"keyence-lkg"}
 

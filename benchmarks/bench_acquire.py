@@ -34,8 +34,8 @@ from acquisition.engine import RunEngine  # noqa: E402
 from acquisition.operators import AutoOperator  # noqa: E402
 from acquisition.plans import straightness_plan  # noqa: E402
 from acquisition.rig import Rig  # noqa: E402
-from acquisition.runstore import RunStore  # noqa: E402
 from drivers.readings import AveragedDisplacement, ControllerStatus, InterferometerReading  # noqa: E402
+from saved_runs.store.writer import RunStore  # noqa: E402
 
 OVERHEAD_TARGET_MS = 1.0
 RUN_TARGET_S = 2.0

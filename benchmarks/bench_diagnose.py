@@ -32,8 +32,8 @@ def make_run(out: Path, targets: int, approaches: int) -> dict:
     """Simulate the benchmark run into ``out``; return the scenario's hidden effects."""
     import numpy as np
 
-    from acquisition.scenario import scenario_from_dict
-    from acquisition.simulate import simulate_run
+    from acquisition.simulated.scenario import scenario_from_dict
+    from acquisition.simulated.synthetic import simulate_run
 
     rng = np.random.default_rng(0)
     inner = np.sort(rng.uniform(5.0, 995.0, targets - 2))
@@ -52,7 +52,7 @@ def make_run(out: Path, targets: int, approaches: int) -> dict:
 
 
 def time_diagnose(run_dir: str, repetitions: int) -> dict:
-    from acquisition.diagnose import diagnose_run
+    from saved_runs.diagnosis.diagnose import diagnose_run
 
     d = diagnose_run(run_dir)  # warm-up: imports, caches
     times = []

@@ -23,7 +23,7 @@ from pathlib import Path
 
 from acquisition.monitor import LiveMonitor
 from acquisition.rig import Rig, open_controller
-from acquisition.simulation import start_simulated_rig
+from acquisition.simulated.rig import start_simulated_rig
 from drivers.me_ild1420 import ILD1420
 from mocks.me_ild1420 import ILD1420Emulator, StreamPacer
 from mocks.serial_endpoints import PtyEndpoint

@@ -22,9 +22,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from acquisition.volumetric.field import evaluate_field, grid_positions  # noqa: E402
-from acquisition.volumetric.machine_file import load_machine  # noqa: E402
 from processing.volumetric.evaluate import exact, first_order  # noqa: E402
+from saved_runs.volumetric.field import evaluate_field, grid_positions  # noqa: E402
+from saved_runs.volumetric.machine_file import load_machine  # noqa: E402
 
 TARGET_S = 1.0
 MACHINE = ROOT / "docs" / "machines" / "seed004-5axis.toml"

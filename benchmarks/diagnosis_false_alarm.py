@@ -30,9 +30,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 from scipy import stats  # noqa: E402
 
-from acquisition.diagnose import diagnose_run  # noqa: E402
-from acquisition.scenario import model_from_dict, scenario_from_dict  # noqa: E402
-from acquisition.simulate import simulate_run  # noqa: E402
+from acquisition.simulated.scenario import scenario_from_dict  # noqa: E402
+from acquisition.simulated.synthetic import simulate_run  # noqa: E402
+from saved_runs.diagnosis.diagnose import diagnose_run  # noqa: E402
+from saved_runs.diagnosis.model_file import model_from_dict  # noqa: E402
 
 POSITIONING = {
     "kind": "positioning",

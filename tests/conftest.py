@@ -31,7 +31,7 @@ def _quiet_pymodbus() -> None:
 @pytest.fixture
 def sim_rig():
     """A running simulated rig (pty sensor + Modbus TCP controller), noise off."""
-    from acquisition.simulation import start_simulated_rig
+    from acquisition.simulated.rig import start_simulated_rig
 
     rig = start_simulated_rig(seed=1, noise=False)
     yield rig

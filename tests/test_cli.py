@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from acquisition.runstore import load_run
+from saved_runs.store.reader import load_run
 from tui.cli import main
 
 from .cli import guideway, kill_when, one_line_error
@@ -135,10 +135,3 @@ def test_process_writes_deviation_and_uncertainty_columns(demo_run: Path) -> Non
 
 def test_bad_mc_trials_is_a_one_line_error(demo_run: Path) -> None:
     one_line_error(guideway("process", str(demo_run), "--mc-trials", "1"), "--mc-trials")
-
-
-def test_method_choices_are_the_processing_methods() -> None:
-    from processing.decoupling import METHODS
-    from tui.commands.process import METHOD_CHOICES
-
-    assert METHOD_CHOICES == METHODS

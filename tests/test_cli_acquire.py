@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from acquisition.runstore import load_run
+from saved_runs.store.reader import load_run
 
 from .cli import ROOT, guideway, one_line_error
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from acquisition.runstore import load_run
+from saved_runs.store.reader import load_run
 from tests.cli import guideway, one_line_error
 
 SCENARIO = """
@@ -164,7 +164,8 @@ def test_bad_diagnose_input_is_a_one_line_error(tmp_path: Path) -> None:
 
 
 def test_documented_examples_load() -> None:
-    from acquisition.scenario import load_model, load_scenario
+    from acquisition.simulated.scenario import load_scenario
+    from saved_runs.diagnosis.model_file import load_model
 
     root = Path(__file__).resolve().parents[1] / "docs"
     pos = load_scenario(root / "scenario-positioning.toml")

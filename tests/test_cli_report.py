@@ -9,8 +9,8 @@ import pytest
 
 from tui.cli import main
 
-from .acquisition.html_report import assert_self_contained
 from .cli import guideway, one_line_error
+from .saved_runs.html_report import assert_self_contained
 
 V1_RUN = Path(__file__).resolve().parent / "data" / "runs" / "v1-straightness"
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from acquisition.demo import run_demo
-from acquisition.runstore import load_run
+from saved_runs.store.reader import load_run
 from tests.cli import guideway, run_separately
 from tests.test_demo_end_to_end import ls_residual, truth_heights_um
 

@@ -15,8 +15,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from acquisition.errors import UserError
-from acquisition.export import ExportOptions, export_run
+from saved_runs.errors import UserError
+from saved_runs.export.build import export_run
+from saved_runs.export.options import ExportOptions
 from tests.controller_parsers import read_fanuc, read_linuxcnc_comp, read_siemens_lec
 from tests.test_export_end_to_end import write_run
 from tui.cli import main

@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from acquisition.export import ExportOptions, export_run
 from processing.columns import POSITIONING_LINEAR
+from saved_runs.export.build import export_run
+from saved_runs.export.options import ExportOptions
 from tests.cli import guideway, one_line_error
 from tests.controller_parsers import read_fanuc, read_linuxcnc_comp, read_siemens_lec
 from tui.cli import main

@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from acquisition.volumetric.machine_file import load_machine
 from processing.volumetric.chain import element_values
+from saved_runs.volumetric.machine_file import load_machine
 from tui.cli import main
 
 from .controller_parsers import read_linuxcnc_comp

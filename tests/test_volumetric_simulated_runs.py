@@ -27,11 +27,11 @@ import numpy as np
 import pytest
 
 from acquisition.demo import run_demo
-from acquisition.positioning_setup import load_positioning_setup
-from acquisition.simulation import _axis_errors
-from acquisition.volumetric.machine_file import load_machine
+from acquisition.setup.positioning import load_positioning_setup
+from acquisition.simulated.machine import axis_errors
 from mocks.world import euler_zyx
 from processing.volumetric.evaluate import first_order
+from saved_runs.volumetric.machine_file import load_machine
 from tui.cli import main
 
 from .cli import guideway
@@ -84,7 +84,7 @@ def machine_dir(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
         setup.write_text(SETUP.format(name=name, end=end, amp=amp, wl=wl, slope=slope, per=per))
         out = d / f"{name.lower()}-pos"
         assert main(["acquire", "positioning", "--setup", str(setup), "--out", str(out), "--simulate", "--auto"]) == 0
-        errors = _axis_errors(load_positioning_setup(setup), noise=False)  # what the simulated axis does
+        errors = axis_errors(load_positioning_setup(setup), noise=False)  # what the simulated axis does
         truth[name] = lambda p, e=errors: (e.deviation(p, 1, 0.0) + e.deviation(p, -1, 0.0)) / 2  # mean of both
         truth[f"{name}_targets"] = np.array(json.loads((out / "run.json").read_text())["setup"]["targets_mm"])
     demo = run_demo(d / "str", stations=STATIONS, seed=4, noise=False, stream=io.StringIO())

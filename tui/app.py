@@ -34,8 +34,8 @@ from .screens.setup import SetupScreen
 # or results are opened, not before the first frame (benchmarks/bench_tui_first_frame.py).
 if TYPE_CHECKING:
     from acquisition.acquire import SimOptions
-    from acquisition.positioning_setup import PositioningSetup
-    from acquisition.setup import StraightnessSetup
+    from acquisition.setup.positioning import PositioningSetup
+    from acquisition.setup.straightness import StraightnessSetup
 
     from .screens.run import RunScreen
     from .session import RunPlanInfo, RunSession
@@ -44,7 +44,7 @@ QUIT_WAIT_S = 10.0  # after quit was confirmed, the run has this long to close i
 
 
 def plan_info(setup: StraightnessSetup | PositioningSetup, points_before: int = 0) -> RunPlanInfo:
-    from acquisition.setup import StraightnessSetup
+    from acquisition.setup.straightness import StraightnessSetup
 
     from .session import RunPlanInfo
 
@@ -125,7 +125,7 @@ class GuidewayApp(App[None]):
     # -- runs ---------------------------------------------------------------------------------------
     def start_run(self, source: dict[str, Any], out: Path | None, *, simulate: bool,
                   source_name: str = "set-up") -> None:
-        from acquisition.setup_file import setup_from_dict
+        from acquisition.setup.files import setup_from_dict
 
         from .screens.run import ConnectScreen
         from .session import RunSession
@@ -141,19 +141,15 @@ class GuidewayApp(App[None]):
     def resume_run(self, run_dir: Path) -> None:
         """Continue an aborted or crashed run after its last point on disk (the capture screen)."""
         from acquisition.live import LiveDeviation, LiveProfile
-        from acquisition.positioning_setup import positioning_setup_from_dict
-        from acquisition.runstore import load_run
-        from acquisition.setup import straightness_setup_from_run
+        from acquisition.setup.stored import resumed_setup
+        from saved_runs.store.reader import load_run
 
         from .screens.run import CaptureScreen
         from .session import RunSession, add_deviation
 
         try:
             run = load_run(run_dir)
-            if run.kind == "straightness":
-                setup: Any = straightness_setup_from_run(run.meta)
-            else:
-                setup = positioning_setup_from_dict(run.meta.get("setup_source") or {}, f"{run_dir}/run.json")
+            setup: Any = resumed_setup(run.meta, run_dir)
         except Exception as exc:  # noqa: BLE001 - shown, not raised: the browser stays usable
             self.notify(f"cannot resume {run_dir}: {exc}", severity="error", markup=False)
             return

@@ -12,7 +12,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from acquisition.errors import EXPECTED_ERRORS
+from saved_runs.errors import EXPECTED_ERRORS
 
 from .commands import register_all
 

@@ -23,9 +23,9 @@ from typing import Any
 
 from acquisition.acquire import SimOptions, acquire
 from acquisition.engine import RunEngine
-from acquisition.errors import EXPECTED_ERRORS
 from acquisition.messages import Instruct, Prompt
 from acquisition.monitor import LiveMonitor, LiveReading
+from saved_runs.errors import EXPECTED_ERRORS
 
 from .messages import (
     DeviationArrived,

@@ -31,7 +31,6 @@ from typing import Any
 from drivers.readings import InterferometerReading
 
 from ..inposition import AcknowledgeInPosition, InPositionState, ReadAngle, ReadInPosition, WaitInPosition
-from ..iso230 import Stop
 from ..messages import (
     Annotate,
     CloseRun,
@@ -45,7 +44,8 @@ from ..messages import (
     Wait,
     ZeroInterferometer,
 )
-from ..positioning_setup import PositioningSetup
+from ..setup.cycles import Stop
+from ..setup.positioning import PositioningSetup
 from .straightness import ResumePoint
 
 ARROW = {1: "up (+)", -1: "down (-)"}

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from drivers.readings import AveragedDisplacement, InterferometerReading
+from saved_runs.evaluation.limits import ValidationSetup
 
 from ..messages import (
     Annotate,
@@ -51,7 +52,7 @@ from ..messages import (
     Wait,
     ZeroInterferometer,
 )
-from ..setup import StraightnessSetup, ValidationSetup, WarmupSetup
+from ..setup.straightness import StraightnessSetup, WarmupSetup
 
 Step = tuple[int, int]  # (pass, station)
 

@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from acquisition.acquire import SimOptions, run_positioning, run_straightness
-from acquisition.diagnose import diagnose_run
-from acquisition.positioning_setup import positioning_setup_from_dict
-from acquisition.runstore import load_run
-from acquisition.setup import straightness_setup_from_dict
+from acquisition.setup.positioning import positioning_setup_from_dict
+from acquisition.setup.straightness import straightness_setup_from_dict
+from saved_runs.diagnosis.diagnose import diagnose_run
+from saved_runs.store.reader import load_run
 
 from ..cli import guideway, one_line_error
 from ..setups import straightness_setup_text
@@ -124,7 +124,7 @@ def test_scenario_of_the_wrong_kind_is_a_one_line_error(tmp_path: Path, setup_fi
 def test_the_simulation_table_of_a_straightness_setup_is_checked() -> None:
     import pytest
 
-    from acquisition.errors import SetupError
+    from saved_runs.errors import SetupError
 
     text = (ROOT / "docs" / "setup-straightness.toml").read_text()
     data = tomllib.loads(text)

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from acquisition.acquire import SimOptions, run_straightness
-from acquisition.evaluate import process_run_dir
-from acquisition.setup import straightness_setup_from_dict
+from acquisition.setup.straightness import straightness_setup_from_dict
+from saved_runs.evaluation.evaluate import process_run_dir
 
 from ..setups import straightness_setup_text
 from ..test_demo_end_to_end import ls_residual, truth_heights_um

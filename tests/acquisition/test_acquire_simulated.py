@@ -20,9 +20,10 @@ from acquisition.engine import RunEngine, RunState
 from acquisition.operators import AutoOperator
 from acquisition.plans import straightness_plan
 from acquisition.rig import open_rig
-from acquisition.runstore import RunStore, load_run
-from acquisition.simulation import start_simulated_rig
+from acquisition.simulated.rig import start_simulated_rig
 from mocks.interferometer import InterferometerEmulator, ModbusServerThread
+from saved_runs.store.reader import load_run
+from saved_runs.store.writer import RunStore
 
 from ..cli import guideway, kill_when
 from ..setups import straightness_setup_text
@@ -132,7 +133,7 @@ def test_sigkill_then_resume_gives_the_uninterrupted_points(tmp_path: Path, seed
 
 
 def test_live_heights_equal_the_offline_profile(tmp_path: Path) -> None:
-    from acquisition.evaluate import process_run_dir
+    from saved_runs.evaluation.evaluate import process_run_dir
 
     out = io.StringIO()
     res = run_straightness(demo_setup(stations=8, samples=2), tmp_path / "run", simulate=SimOptions(seed=6),

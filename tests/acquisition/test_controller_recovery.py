@@ -17,11 +17,11 @@ import pytest
 from acquisition import messages as m
 from acquisition.acquire import SimOptions, run_straightness
 from acquisition.demo import run_demo
-from acquisition.errors import SetupError
 from acquisition.operators import AutoOperator
-from acquisition.runstore import load_run
-from acquisition.setup import StraightnessSetup, straightness_setup_from_dict
-from acquisition.simulation import start_simulated_rig
+from acquisition.setup.straightness import StraightnessSetup, straightness_setup_from_dict
+from acquisition.simulated.rig import start_simulated_rig
+from saved_runs.errors import SetupError
+from saved_runs.store.reader import load_run
 from tests.test_demo_end_to_end import ls_residual, truth_heights_um
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -146,7 +146,7 @@ def test_the_simulated_controller_answers_at_the_set_up_device_id(tmp_path: Path
 
 
 def test_a_wrong_device_id_is_found_before_the_run_starts(tmp_path: Path) -> None:
-    from acquisition.errors import UserError
+    from saved_runs.errors import UserError
 
     sim = start_simulated_rig(seed=1, noise=False, device_id=7)
     try:
@@ -209,7 +209,7 @@ def test_bad_device_keys_are_one_line_setup_errors(tables: dict, message: str) -
 
 
 def test_a_positioning_set_up_takes_the_same_controller_keys() -> None:
-    from acquisition.positioning_setup import positioning_setup_from_dict
+    from acquisition.setup.positioning import positioning_setup_from_dict
 
     from .test_positioning_workflow import example
 

@@ -14,17 +14,18 @@ import pytest
 
 from acquisition.acquire import SimOptions, run_straightness
 from acquisition.demo import demo_setup
-from acquisition.errors import SetupError
 from acquisition.live import LiveProfile
-from acquisition.report.build import build_report
-from acquisition.runstore import load_run
-from acquisition.setup import straightness_setup_from_dict, straightness_setup_from_run
+from acquisition.setup.stored import straightness_setup_from_run
+from acquisition.setup.straightness import straightness_setup_from_dict
 from processing.decoupling import decouple
 from processing.geometry import DatumAngles
+from saved_runs.errors import SetupError
+from saved_runs.report.build import build_report
+from saved_runs.store.reader import load_run
 from tui.cli import main
 
 from ..cli import guideway, one_line_error
-from .html_report import parse
+from ..saved_runs.html_report import parse
 
 TOML_GEOMETRY = {"mirror_mm": [50, 110, 0], "sensor_mm": [150, 0, 40]}
 

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from acquisition.acquire import SimOptions, run_straightness
-from acquisition.errors import UserError
 from acquisition.rig import open_environment, open_rig
-from acquisition.setup import straightness_setup_from_dict
+from acquisition.setup.straightness import straightness_setup_from_dict
 from mocks.xymd02 import XYMD02Emulator, start_xymd02
+from saved_runs.errors import UserError
 from tui.cli import main
 
 from ..cli import guideway, one_line_error
@@ -97,7 +97,7 @@ def test_simulated_run_with_a_transmitter_in_the_set_up(tmp_path: Path) -> None:
 
 
 def test_bad_transmitter_url_in_the_set_up() -> None:
-    from acquisition.errors import SetupError
+    from saved_runs.errors import SetupError
 
     text = setup_text("keyence-lkg", None, "height") + '\n[transmitter]\nurl = "/dev/ttyUSB2"\n'
     with pytest.raises(SetupError, match=r"\[transmitter\] url"):

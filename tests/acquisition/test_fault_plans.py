@@ -13,11 +13,12 @@ import pytest
 
 from acquisition.acquire import SimOptions, run_positioning
 from acquisition.demo import run_demo
-from acquisition.errors import UserError
-from acquisition.positioning_setup import positioning_setup_from_dict
 from acquisition.rig import open_rig
-from acquisition.simulation import REQUESTS_PER_SAMPLE, SENSOR_EMULATORS, start_simulated_rig
+from acquisition.setup.positioning import positioning_setup_from_dict
+from acquisition.simulated.rig import start_simulated_rig
+from acquisition.simulated.sensors import REQUESTS_PER_SAMPLE, SENSOR_EMULATORS
 from mocks.faults import FaultPlan
+from saved_runs.errors import UserError
 from tui.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]

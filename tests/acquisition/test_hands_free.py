@@ -17,10 +17,10 @@ import pytest
 from acquisition import messages as m
 from acquisition.acquire import SimOptions, run_straightness
 from acquisition.plans.straightness import straightness_plan
-from acquisition.runstore import load_run
-from acquisition.setup import StraightnessSetup
-from acquisition.simulation import SimulatedRig, start_simulated_rig
+from acquisition.setup.straightness import StraightnessSetup
+from acquisition.simulated.rig import SimulatedRig, start_simulated_rig
 from drivers.readings import ControllerStatus, InterferometerReading
+from saved_runs.store.reader import load_run
 
 from ..waiting import wait_for
 from .plan_driver import Scripted, drive

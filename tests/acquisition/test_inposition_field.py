@@ -17,14 +17,14 @@ import pytest
 
 from acquisition import messages as m
 from acquisition.acquire import SimOptions, run_positioning
-from acquisition.errors import SetupError
 from acquisition.gcode import part_program
 from acquisition.inposition import DONE, IN_POSITION, RUNNING, InPositionEvent, WaitInPosition, wait_in_position
 from acquisition.operators import AutoOperator
 from acquisition.plans.positioning import positioning_plan
-from acquisition.positioning_setup import TriggerSetup, positioning_setup_from_dict
-from acquisition.runstore import load_run
+from acquisition.setup.positioning import TriggerSetup, positioning_setup_from_dict
 from drivers.interferometer import load_register_map
+from saved_runs.errors import SetupError
+from saved_runs.store.reader import load_run
 
 from .plan_driver import Scripted, drive
 from .test_positioning_workflow import example, ifm, psetup

@@ -8,10 +8,10 @@ import re
 
 import pytest
 
-from acquisition.errors import SetupError
 from acquisition.gcode import part_program
-from acquisition.iso230 import Stop, linear_cycle, linear_targets, rotary_targets, step_cycle
-from acquisition.positioning_setup import PositioningSetup, TriggerSetup
+from acquisition.setup.cycles import Stop, linear_cycle, linear_targets, rotary_targets, step_cycle
+from acquisition.setup.positioning import PositioningSetup, TriggerSetup
+from saved_runs.errors import SetupError
 
 
 @pytest.mark.parametrize(("start", "end", "count"), [(0.0, 1000.0, 5), (0.0, 1200.0, 6), (0.0, 300.0, 5),

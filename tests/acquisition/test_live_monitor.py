@@ -11,7 +11,7 @@ from acquisition.messages import Requested, Wait
 from acquisition.monitor import LiveMonitor, LiveReading
 from acquisition.operators import AutoOperator
 from acquisition.rig import open_rig
-from acquisition.simulation import start_simulated_rig
+from acquisition.simulated.rig import start_simulated_rig
 from tests.waiting import wait_for
 
 
@@ -67,9 +67,9 @@ def test_operator_request_is_answered_once_and_ends_a_wait() -> None:
 
 
 def test_rotary_set_up_reads_the_angle_captured_with_each_trigger() -> None:
-    from acquisition.positioning_setup import positioning_setup_from_dict
     from acquisition.rig import open_controller_rig
-    from acquisition.simulation import start_simulated_machine
+    from acquisition.setup.positioning import positioning_setup_from_dict
+    from acquisition.simulated.machine import start_simulated_machine
 
     setup = positioning_setup_from_dict({"axis": {"type": "rotary", "start_deg": 0.0, "end_deg": 360.0, "runs": 1,
                                                   "datum_deg": 0.0}})

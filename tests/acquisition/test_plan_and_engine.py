@@ -12,7 +12,7 @@ from acquisition.engine import TRANSITIONS, IllegalTransition, RunEngine, RunSta
 from acquisition.operators import AutoOperator
 from acquisition.plans import straightness_plan
 from acquisition.rig import Rig
-from acquisition.setup import StraightnessSetup
+from acquisition.setup.straightness import StraightnessSetup
 from drivers.errors import TransportTimeout
 from drivers.readings import AveragedDisplacement, ControllerStatus, InterferometerReading
 from processing.geometry import BlockGeometry

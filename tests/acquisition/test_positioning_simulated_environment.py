@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from acquisition.acquire import SimOptions, run_positioning
-from acquisition.evaluate import process_run_dir
-from acquisition.positioning_setup import positioning_setup_from_dict
+from acquisition.setup.positioning import positioning_setup_from_dict
 from mocks.machine_axis import AxisErrors
+from saved_runs.evaluation.evaluate import process_run_dir
 from tui.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -92,7 +92,7 @@ def test_raw_readings_carry_the_air_index_and_the_expansion(tmp_path: Path) -> N
     s = positioning_setup_from_dict(src)
     shown = io.StringIO()
     run_positioning(s, tmp_path / "run", simulate=SimOptions(seed=5, noise=False), auto=True, stream=shown)
-    from acquisition.runstore import load_run
+    from saved_runs.store.reader import load_run
 
     pts = load_run(tmp_path / "run").points
     far = pts[pts["target_mm"] == max(s.targets)]

@@ -15,19 +15,19 @@ import pytest
 
 from acquisition import messages as m
 from acquisition.acquire import SimOptions, run_positioning
-from acquisition.errors import SetupError
 from acquisition.inposition import AcknowledgeInPosition, InPositionEvent, WaitInPosition
 from acquisition.plans.positioning import positioning_plan, positioning_resume_point
-from acquisition.positioning_setup import (
+from acquisition.setup.positioning import (
     PositioningSetup,
     SimulatedAxisSetup,
     TriggerSetup,
     positioning_setup_from_dict,
 )
-from acquisition.runstore import load_run
 from drivers.readings import ControllerStatus, InterferometerReading
 from processing.air_index import air_index
 from processing.columns import POSITIONING_LINEAR, POSITIONING_ROTARY
+from saved_runs.errors import SetupError
+from saved_runs.store.reader import load_run
 
 from .plan_driver import Scripted, drive
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from acquisition.simulation import start_simulated_rig
+from acquisition.simulated.rig import start_simulated_rig
 
 from ..cli import LineReader, guideway, interrupt, one_line_error, spawn
 
@@ -247,12 +247,12 @@ def test_a_controller_that_answered_the_open_is_not_blamed_on_its_address() -> N
     # open_controller reads the status once, so a controller under probe has answered at this address;
     # a timeout in the identity step (no FC 43/14 identity, the status read checks it answers) is not
     # an address problem
-    from acquisition.errors import UserError
     from acquisition.probe import open_probe
     from acquisition.rig import ControllerTiming
     from mocks.faults import FaultPlan
     from mocks.interferometer import DeviceIdentity, InterferometerEmulator, start_controller
     from mocks.world import Noise, World
+    from saved_runs.errors import UserError
 
     emu = InterferometerEmulator(World(noise=Noise.off()), faults=FaultPlan.parse("controller:drop@2x5"))
     emu.identity = DeviceIdentity()  # no device identification objects

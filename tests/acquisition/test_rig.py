@@ -6,10 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from acquisition.errors import UserError
 from acquisition.rig import open_rig
 from mocks.keyence_lkg import KeyenceLKGEmulator
 from mocks.serial_endpoints import TcpEndpoint
+from saved_runs.errors import UserError
 
 
 def test_missing_serial_port(tmp_path: Path) -> None:

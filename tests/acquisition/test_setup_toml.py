@@ -7,8 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from acquisition.errors import SetupError
-from acquisition.setup import load_straightness_setup, straightness_setup_from_dict, straightness_setup_from_run
+from acquisition.setup.stored import straightness_setup_from_run
+from acquisition.setup.straightness import load_straightness_setup, straightness_setup_from_dict
+from saved_runs.errors import SetupError
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "docs" / "setup-straightness.toml"
@@ -81,7 +82,7 @@ def test_setup_mistakes_are_one_line_errors(mutate, message: str) -> None:
     ({"type": "rotary", "end_deg": 400.0}, {}, "0 < end_deg - start_deg <= 360"),
 ])
 def test_positioning_refusals_name_the_setup_file(axis: dict, extra: dict, message: str) -> None:
-    from acquisition.positioning_setup import positioning_setup_from_dict
+    from acquisition.setup.positioning import positioning_setup_from_dict
 
     with pytest.raises(SetupError) as info:
         positioning_setup_from_dict({"kind": "positioning", "axis": {"end_mm": 500.0, **axis}, **extra}, "p.toml")

@@ -11,13 +11,8 @@ import numpy as np
 import pytest
 
 from acquisition.rig import SENSOR_DRIVERS, open_sensor
-from acquisition.simulation import (
-    SAMPLE_LOG_LIMIT,
-    SENSOR_EMULATORS,
-    bound_sample_log,
-    default_block,
-    start_simulated_rig,
-)
+from acquisition.simulated.rig import SAMPLE_LOG_LIMIT, bound_sample_log, start_simulated_rig
+from acquisition.simulated.sensors import SENSOR_EMULATORS, default_block
 
 # What each family reports for a surface height h (mm, closer -> larger), from its protocol
 # document: the LK-G and HL-G1 a signed value around the head's reference distance, the ILD1420

@@ -16,10 +16,11 @@ from acquisition.engine import RunEngine, RunState
 from acquisition.operators import AutoOperator
 from acquisition.plans.straightness import ResumePoint, capture_problem, resume_point, straightness_plan
 from acquisition.rig import Rig
-from acquisition.setup import StraightnessSetup, ValidationSetup, WarmupSetup
+from acquisition.setup.straightness import StraightnessSetup, WarmupSetup
 from drivers.errors import ConnectionLost
 from drivers.readings import AveragedDisplacement, ControllerStatus, InterferometerReading, MeasurementStatus
 from processing.geometry import BlockGeometry
+from saved_runs.evaluation.limits import ValidationSetup
 
 from .plan_driver import drive
 
@@ -373,7 +374,8 @@ def test_setup_steps_property() -> None:
 
 
 def test_pause_requested_as_the_run_opens(tmp_path) -> None:
-    from acquisition.runstore import RunStore, load_run
+    from saved_runs.store.reader import load_run
+    from saved_runs.store.writer import RunStore
 
     ctl = FakeController()
     op = Scripted(ctl)

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from acquisition.errors import SetupError
 from acquisition.gcode import part_program
-from acquisition.positioning_setup import positioning_setup_from_dict
+from acquisition.setup.positioning import positioning_setup_from_dict
 from processing.iso230_2 import check_target_count, iso230_2_from_arrays
+from saved_runs.errors import SetupError
 
 from ..cli import ROOT, guideway, one_line_error
 

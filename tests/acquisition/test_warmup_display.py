@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from acquisition import messages as m
 from acquisition.plans.straightness import straightness_plan
-from acquisition.setup import WarmupSetup
+from acquisition.setup.straightness import WarmupSetup
 
 from .test_straightness_workflow import Bench, drive, setup
 

@@ -12,7 +12,7 @@ import time
 import pytest
 
 from acquisition.rig import open_rig
-from acquisition.simulation import start_simulated_rig
+from acquisition.simulated.rig import start_simulated_rig
 from drivers.errors import ConnectionLost
 from drivers.interferometer import InterferometerController
 from drivers.modbus_link import ModbusLink, SerialSettings, parse_rtu_settings, rtu_crc

@@ -15,10 +15,10 @@ import tomllib
 import numpy as np
 import pytest
 
-from acquisition.volumetric.machine_file import machine_from_dict
 from processing.volumetric.curves import Polynomial
 from processing.volumetric.evaluate import contributions, exact, first_order
 from processing.volumetric.model import COMPONENTS, Body, MachineModel, component_element, squareness_element
+from saved_runs.volumetric.machine_file import machine_from_dict
 
 from .volumetric_reference import Reference
 

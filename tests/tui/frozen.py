@@ -8,7 +8,7 @@ from pathlib import Path
 from acquisition.messages import Instruct, Prompt
 from acquisition.monitor import LiveReading
 from acquisition.plans.straightness import straightness_plan
-from acquisition.setup_file import setup_from_dict
+from acquisition.setup.files import setup_from_dict
 from drivers.readings import ControllerStatus, InterferometerReading
 from tests.tui.sessions import POSITIONING, STRAIGHTNESS
 from tui.app import plan_info

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from acquisition.messages import Instruct, Prompt
-from acquisition.setup_file import setup_from_dict
+from acquisition.setup.files import setup_from_dict
 from tests.tui.frozen import RUNS, ifm, positioning_session, straightness_session
 from tests.tui.sessions import POSITIONING, screen_lines, screen_name, widget_text
 from tests.waiting import wait_for_app

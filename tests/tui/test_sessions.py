@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 from acquisition.acquire import SimOptions, acquire
-from acquisition.evaluate_positioning import positioning_deviations
-from acquisition.runstore import load_run
+from saved_runs.evaluation.positioning import positioning_deviations
+from saved_runs.store.reader import load_run
 from tests.tui.sessions import (
     POSITIONING,
     STRAIGHTNESS,

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from acquisition.errors import SetupError
-from acquisition.setup import read_toml
-from acquisition.setup_file import setup_from_dict, setup_toml_text
+from acquisition.setup.files import setup_from_dict, setup_toml_text
+from saved_runs.errors import SetupError
+from saved_runs.toml_file import read_toml
 from tui.screens.setup import field_for_message, positioning_fields, straightness_fields
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"

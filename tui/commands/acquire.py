@@ -22,8 +22,8 @@ KINDS = ("straightness", "positioning")
 
 def run(args: argparse.Namespace) -> int:
     from acquisition.acquire import SimOptions, acquire
-    from acquisition.errors import SetupError, UserError
-    from acquisition.setup import read_toml
+    from saved_runs.errors import SetupError, UserError
+    from saved_runs.toml_file import read_toml
 
     resume = args.resume is not None
     if isinstance(args.resume, Path):
@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
     if args.kind is None:
         if not resume:
             raise SetupError("give the run kind: guideway acquire straightness|positioning ...")
-        from acquisition.runstore import load_run
+        from saved_runs.store.reader import load_run
 
         args.kind = load_run(args.out).kind
     if args.setup is None and not resume:

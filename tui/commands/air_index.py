@@ -8,7 +8,7 @@ import sys
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.air import EQUATION_NAMES, checked_air_index
+    from saved_runs.evaluation.air import checked_air_index, equation_name
 
     result = checked_air_index(args.t_c, args.p_pa, args.rh, co2_ppm=args.co2_ppm,
                                wavelength_nm=args.wavelength_nm, equation=args.equation)
@@ -17,13 +17,13 @@ def run(args: argparse.Namespace) -> int:
         json.dump(result, sys.stdout)
         sys.stdout.write("\n")
     else:
-        print(f"n = {n!r}  ({EQUATION_NAMES[args.equation]}; t = {args.t_c:g} C, p = {args.p_pa:g} Pa, "
+        print(f"n = {n!r}  ({equation_name(args.equation)}; t = {args.t_c:g} C, p = {args.p_pa:g} Pa, "
               f"RH = {args.rh:g} %, CO2 = {args.co2_ppm:g} ppm, vacuum wavelength {args.wavelength_nm:g} nm)")
     return 0
 
 
 def register(sub) -> None:  # noqa: ANN001
-    from acquisition.air import DEFAULT_CO2_PPM, DEFAULT_EQUATION, EQUATIONS, HENE_WAVELENGTH_NM
+    from saved_runs.evaluation.air import DEFAULT_CO2_PPM, DEFAULT_EQUATION, EQUATIONS, HENE_WAVELENGTH_NM
 
     pa = sub.add_parser("air-index", help="refractive index of air (modified Edlén or Ciddor)")
     pa.add_argument("--t-c", type=float, required=True, help="air temperature (C)")

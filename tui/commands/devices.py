@@ -41,9 +41,9 @@ EXIT_DEVICE_ERROR = 3
 
 
 def probe(args: argparse.Namespace) -> int:
-    from acquisition.errors import UserError
     from acquisition.probe import open_probe
     from acquisition.rig import ControllerTiming, SensorOptions
+    from saved_runs.errors import UserError
 
     if args.count < 1:
         raise UserError(f"--count must be at least 1 (got {args.count})")

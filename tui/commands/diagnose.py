@@ -18,14 +18,14 @@ def run(args: argparse.Namespace) -> int:
     # numpy is first imported by this command.
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, "1")
-    from acquisition.diagnose import diagnose_run, write_model
-    from acquisition.runstore import load_run
+    from saved_runs.diagnosis.diagnose import diagnose_run, write_model
+    from saved_runs.store.reader import load_run
 
     warn_about_run(load_run(args.run_dir), "diagnosing the")
     diagnosis = diagnose_run(args.run_dir, args.model, accept_out_of_range=args.accept_out_of_range)
     written = []
     if args.report is not None:
-        from acquisition.report.diagnosis import write_diagnosis_report
+        from saved_runs.diagnosis.report import write_diagnosis_report
 
         written.append(f"report written to {write_diagnosis_report(diagnosis, args.report)}")
     if args.out is not None:

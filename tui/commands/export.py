@@ -9,8 +9,9 @@ from pathlib import Path
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.errors import UserError
-    from acquisition.export import ExportOptions, export_run, write_export
+    from saved_runs.errors import UserError
+    from saved_runs.export.build import export_run, write_export
+    from saved_runs.export.options import ExportOptions
 
     options = ExportOptions(
         fmt=args.format, model=args.model, mode=args.mode, step=args.step, tolerance=args.tolerance,
@@ -52,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub) -> None:  # noqa: ANN001
-    from acquisition.export import DEFAULT_POLYNOMIAL_DEGREE, FORMATS, MODEL_NAMES, MODES
+    from saved_runs.export.options import DEFAULT_POLYNOMIAL_DEGREE, FORMATS, MODEL_NAMES, MODES
 
     ex = sub.add_parser("export", help="write a CNC compensation table from a positioning run",
                         description="Model the per-target mean deviations of a positioning run and write a "

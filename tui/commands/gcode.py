@@ -15,7 +15,7 @@ from pathlib import Path
 
 def run(args: argparse.Namespace) -> int:
     from acquisition.gcode import part_program
-    from acquisition.positioning_setup import load_positioning_setup
+    from acquisition.setup.positioning import load_positioning_setup
 
     setup = load_positioning_setup(args.setup)
     if args.dialect:

@@ -8,7 +8,12 @@ from pathlib import Path
 
 
 def run_positioning(args: argparse.Namespace) -> int:
-    from acquisition.import_positioning import MAX_PROBLEMS_SHOWN, ImportProblems, PositioningImport, import_positioning
+    from saved_runs.importing.positioning import (
+        MAX_PROBLEMS_SHOWN,
+        ImportProblems,
+        PositioningImport,
+        import_positioning,
+    )
 
     opts = PositioningImport(
         axis_type=args.axis_type, compensated=args.compensated, refractive_index_assumed=args.index_assumed,
@@ -29,7 +34,7 @@ def run_positioning(args: argparse.Namespace) -> int:
 
 
 def register(sub) -> None:  # noqa: ANN001
-    from acquisition.air import DEFAULT_EQUATION, EQUATIONS
+    from saved_runs.evaluation.air import DEFAULT_EQUATION, EQUATIONS
 
     pi = sub.add_parser("import", help="import measured data from a CSV file as a run directory")
     kinds = pi.add_subparsers(dest="import_kind", required=True, parser_class=type(pi))

@@ -10,7 +10,7 @@ from typing import Any
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.evaluate import process_run_dir
+    from saved_runs.evaluation.evaluate import process_run_dir
 
     run_, result = process_run_dir(args.run_dir, **evaluator_options(args))
     warn_about_run(run_, "processing the")
@@ -36,21 +36,15 @@ def warn_about_run(run_: Any, doing: str) -> None:
               f"{len(run_.points)} point(s) recorded", file=sys.stderr)
 
 
-METHOD_CHOICES = ("exact", "first-order", "patent")
-
-
-EDITION_CHOICES = ("ISO 230-2:1997", "ISO 230-2:2006", "ISO 230-2:2014")
-
-
 def evaluator_options(args: argparse.Namespace) -> dict[str, object]:
     """Evaluator options given on the command line (only those set; one the run's kind does not
-    take is refused by acquisition.evaluate.evaluate_run)."""
+    take is refused by saved_runs.evaluation.evaluate.evaluate_run)."""
     opts: dict[str, object] = {}
     if args.method is not None:
         opts["method"] = args.method
     if getattr(args, "k", None) is not None:
         if not args.k > 0:
-            from acquisition.errors import UserError
+            from saved_runs.errors import UserError
 
             raise UserError(f"--k must be a positive coverage factor, got {args.k}")
         opts["k"] = args.k
@@ -60,7 +54,7 @@ def evaluator_options(args: argparse.Namespace) -> dict[str, object]:
         opts["accept_out_of_range"] = True
     if args.mc_trials is not None:
         if args.mc_trials < 0 or args.mc_trials == 1:
-            from acquisition.errors import UserError
+            from saved_runs.errors import UserError
 
             raise UserError(f"--mc-trials must be 0 (off) or at least 2, got {args.mc_trials}")
         opts["mc_trials"] = args.mc_trials
@@ -69,15 +63,16 @@ def evaluator_options(args: argparse.Namespace) -> dict[str, object]:
 
 def add_evaluator_options(parser: argparse.ArgumentParser) -> None:
     """The evaluation options shared by ``process`` and ``report``."""
-    # literal (not imported) so `guideway --help` loads no numpy; tests/test_cli.py checks it
-    parser.add_argument("--method", choices=METHOD_CHOICES, default=None,
+    from saved_runs.evaluation.options import EDITIONS, METHODS
+
+    parser.add_argument("--method", choices=METHODS, default=None,
                         help="straightness decoupling method (default: exact; see docs/conventions.md)")
     parser.add_argument("--mc-trials", type=int, default=None, metavar="N",
                         help="Monte Carlo trials for the straightness uncertainty (default 10000, fewer "
                              "above 200 stations: trials x stations <= 2e6, at least 1000; 0 = off)")
     parser.add_argument("--k", type=float, default=None,
                         help="ISO 230-2 coverage factor for a positioning run (default 2)")
-    parser.add_argument("--edition", choices=EDITION_CHOICES, default=None,
+    parser.add_argument("--edition", choices=EDITIONS, default=None,
                         help="ISO 230-2 edition recorded for a positioning run (default ISO 230-2:2014)")
     parser.add_argument("--accept-out-of-range", action="store_true",
                         help="evaluate values outside the set-up's validation limits instead of refusing the "

@@ -9,8 +9,8 @@ from .process import add_evaluator_options, evaluator_options, warn_about_run
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.report.build import build_report
-    from acquisition.runstore import load_run
+    from saved_runs.report.build import build_report
+    from saved_runs.store.reader import load_run
 
     warn_about_run(load_run(args.run_dir), "the report covers the")
     path = build_report(args.run_dir, out=args.out, **evaluator_options(args))

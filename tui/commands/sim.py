@@ -33,8 +33,10 @@ def _read_commands(rig, out_lock: threading.Lock) -> None:  # noqa: ANN001 - Sim
 
 
 def serve(args: argparse.Namespace) -> int:
-    from acquisition.errors import UserError
-    from acquisition.simulation import parse_faults, sensor_emulator, start_simulated_rig
+    from acquisition.simulated.faults import parse_faults
+    from acquisition.simulated.rig import start_simulated_rig
+    from acquisition.simulated.sensors import sensor_emulator
+    from saved_runs.errors import UserError
 
     sensor_emulator(args.sensor)  # bad names / specs fail before anything starts
     parse_faults(args.faults)

@@ -9,7 +9,7 @@ from . import seed as seed_arg
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.simulate import simulate_run
+    from acquisition.simulated.synthetic import simulate_run
 
     out, n = simulate_run(args.scenario, args.out, seed=args.seed, noise=not args.no_noise)
     print(f"simulated run: {n} points in {out}")

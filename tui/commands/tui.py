@@ -12,18 +12,18 @@ from . import seed as seed_arg
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.errors import SetupError
+    from saved_runs.errors import SetupError
 
     if args.faults and not args.simulate:
         raise SetupError("--faults needs --simulate (faults are injected into the simulated devices)")
     if args.faults:
-        from acquisition.simulation import parse_faults
+        from acquisition.simulated.faults import parse_faults
 
         parse_faults(args.faults)  # a bad spec fails here, not in the middle of the screen
     source = None
     if args.setup is not None:  # (the loaders are imported only with a file: the first frame comes sooner)
-        from acquisition.setup import read_toml
-        from acquisition.setup_file import setup_kind
+        from acquisition.setup.files import setup_kind
+        from saved_runs.toml_file import read_toml
 
         source = read_toml(args.setup)
         setup_kind(source)

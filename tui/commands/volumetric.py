@@ -20,8 +20,8 @@ TOP_ELEMENTS = 8
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.errors import UserError
-    from acquisition.volumetric.machine_file import load_machine
+    from saved_runs.errors import UserError
+    from saved_runs.volumetric.machine_file import load_machine
 
     if args.at is not None and args.export is not None:
         raise UserError("--at and --export cannot be combined; run them separately")
@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     method = "exact" if args.exact else "first-order"
     if args.at is not None:
         return _at(machine, args, method)
-    from acquisition.volumetric.field import parse_settings
+    from saved_runs.volumetric.field import parse_settings
 
     fixed = parse_settings(machine.model, args.set or [])
     if args.export is not None:
@@ -53,7 +53,7 @@ def _notes(machine) -> None:  # noqa: ANN001
 
 
 def _at(machine, args: argparse.Namespace, method: str) -> int:  # noqa: ANN001
-    from acquisition.volumetric.field import at_pose
+    from saved_runs.volumetric.field import at_pose
 
     obj = at_pose(machine, args.at, method=method, frame=args.frame)
     if args.json:
@@ -82,8 +82,8 @@ def _signed(v: float, width: int) -> str:
 
 
 def _grid(machine, args: argparse.Namespace, method: str, fixed: dict[str, float]) -> int:  # noqa: ANN001
-    from acquisition.volumetric.field import evaluate_field, grid_positions
-    from acquisition.volumetric.outputs import write_field
+    from saved_runs.volumetric.field import evaluate_field, grid_positions
+    from saved_runs.volumetric.outputs import write_field
 
     _notes(machine)
     gridded, positions = grid_positions(machine.model, args.grid, fixed)
@@ -106,7 +106,7 @@ def _grid(machine, args: argparse.Namespace, method: str, fixed: dict[str, float
 
 
 def _export(machine, args: argparse.Namespace, method: str, fixed: dict[str, float]) -> int:  # noqa: ANN001
-    from acquisition.volumetric.export import export_model
+    from saved_runs.volumetric.export import export_model
 
     _notes(machine)
     ex = export_model(machine, args.export, args.out, count=args.grid, fixed=fixed, method=method)

@@ -15,12 +15,13 @@ from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import Footer, Header, Static
 
-from acquisition.errors import EXPECTED_ERRORS
-from acquisition.evaluate import process_run_dir
-from acquisition.export import FORMATS, MODEL_NAMES, ExportOptions, write_export
-from acquisition.report.build import build_report
+from saved_runs.errors import EXPECTED_ERRORS
+from saved_runs.evaluation.evaluate import process_run_dir
+from saved_runs.evaluation.options import EDITIONS, METHODS
+from saved_runs.export.build import write_export
+from saved_runs.export.options import FORMATS, MODEL_NAMES, ExportOptions
+from saved_runs.report.build import build_report
 
-from ..commands.process import EDITION_CHOICES, METHOD_CHOICES
 from ..widgets.plot import Plot, PlotData, Series
 
 LINE_NAMES = {"endpoint": "end-point", "least_squares": "least squares", "minimum_zone": "minimum zone"}
@@ -87,10 +88,10 @@ class ResultsScreen(Screen):
         self.run_dir = Path(run_dir)
         self.note = note
         self.kind = ""
-        self.method = METHOD_CHOICES[0]
+        self.method = METHODS[0]
         self.mc_index = 0
         self.k_index = 0
-        self.edition = EDITION_CHOICES[-1]
+        self.edition = EDITIONS[-1]
         self.model = MODEL_NAMES[0]
         self.written: list[str] = []
         self.evaluation: Any = None
@@ -167,7 +168,7 @@ class ResultsScreen(Screen):
     # -- re-processing ----------------------------------------------------------------------------
     def action_method(self) -> None:
         if self.kind == "straightness":
-            self.method = METHOD_CHOICES[(METHOD_CHOICES.index(self.method) + 1) % len(METHOD_CHOICES)]
+            self.method = METHODS[(METHODS.index(self.method) + 1) % len(METHODS)]
             self.evaluate()
 
     def action_uncertainty(self) -> None:
@@ -182,7 +183,7 @@ class ResultsScreen(Screen):
 
     def action_edition(self) -> None:
         if self.kind == "positioning":
-            self.edition = EDITION_CHOICES[(EDITION_CHOICES.index(self.edition) + 1) % len(EDITION_CHOICES)]
+            self.edition = EDITIONS[(EDITIONS.index(self.edition) + 1) % len(EDITIONS)]
             self.evaluate()
 
     def action_model(self) -> None:

@@ -15,7 +15,7 @@ from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Static
 
-from acquisition.runs import RunSummary, list_runs  # json only: the browser paints at once
+from saved_runs.catalog.folder import RunSummary, list_runs  # json only: the browser paints at once
 
 NAME_WIDTH = 32
 KIND_WIDTH = 12

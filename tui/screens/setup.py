@@ -1,7 +1,7 @@
 """Set-up screen: the run's set-up as a form over the set-up file's TOML structure.
 
 Every change is checked with the set-up loader of the run's kind
-(:func:`acquisition.setup_file.setup_from_dict`, the checks of ``guideway
+(:func:`acquisition.setup.files.setup_from_dict`, the checks of ``guideway
 acquire``) and its message is shown next to the field it names.  Keys not on
 the form (loaded from a file) are kept as they are.
 """
@@ -22,7 +22,7 @@ from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import Checkbox, Footer, Header, Input, RadioButton, RadioSet, Select, Static
 
-from acquisition.errors import SetupError
+from saved_runs.errors import SetupError
 
 # The set-up loaders (and the drivers, numpy, pymodbus behind them) are imported in a worker after the
 # first frame (SetupScreen.prepare): the screen paints at once and its fields appear when they can be checked.
@@ -121,7 +121,7 @@ def positioning_fields(unit: str) -> list[tuple[str, list[Field]]]:
 
 
 # [environment] of a linear axis (docs/run-format.md); an angle is not air-compensated, so rotary has none.
-# The placeholders are the loader's defaults (acquisition/positioning_setup.py EnvironmentSetup).
+# The placeholders are the loader's defaults (acquisition/setup/positioning.py EnvironmentSetup).
 ENVIRONMENT_FIELDS = [
     Field("environment", "expansion_ppm_per_k", "expansion (ppm/K)", placeholder="default 11.5 (steel)"),
     Field("environment", "readings_compensated", "readings compensated by the controller", "bool"),
@@ -137,7 +137,7 @@ ENVIRONMENT_FIELDS = [
 def default_source(run_kind: str) -> dict[str, Any]:
     """A new set-up of ``run_kind`` (straightness: the default simulated block, as in docs/setup-straightness.toml)."""
     if run_kind == "straightness":
-        from acquisition.simulation import default_block
+        from acquisition.simulated.sensors import default_block
 
         length, geo = default_block()
         return {"kind": "straightness", "machine": "", "axis": "X", "operator": "",
@@ -235,11 +235,11 @@ class SetupScreen(Screen):
     @work(thread=True, exit_on_error=False)
     def prepare(self) -> None:
         """Import the set-up loaders (seconds on a slow machine) off the UI thread, then build the form."""
-        import acquisition.setup_file  # noqa: F401 - loaded here, used by check()
-        from acquisition.rig import SENSOR_DRIVERS
+        import acquisition.setup.files  # noqa: F401 - loaded here, used by check()
+        from acquisition.rig import SENSOR_PROTOCOLS
 
         source = self.source or default_source("straightness")
-        self.app.call_from_thread(self._prepared, tuple(SENSOR_DRIVERS), source)
+        self.app.call_from_thread(self._prepared, SENSOR_PROTOCOLS, source)
 
     def _prepared(self, protocols: tuple[str, ...], source: dict[str, Any]) -> None:
         self.protocols = protocols
@@ -334,7 +334,7 @@ class SetupScreen(Screen):
 
     def check(self) -> bool:
         """Read the form, validate with the loader; show each message next to its field."""
-        from acquisition.setup_file import setup_from_dict
+        from acquisition.setup.files import setup_from_dict
 
         if self._building:
             return False
@@ -399,7 +399,7 @@ class SetupScreen(Screen):
         return Path(text)
 
     def action_load(self) -> None:
-        from acquisition.setup import read_toml
+        from saved_runs.toml_file import read_toml
 
         path = self._path()
         if path is None:
@@ -420,8 +420,8 @@ class SetupScreen(Screen):
         self.build_fields()
 
     def action_save(self) -> None:
-        from acquisition.runstore import write_text_atomic
-        from acquisition.setup_file import setup_toml_text
+        from acquisition.setup.files import setup_toml_text
+        from saved_runs.store.files import write_text_atomic
 
         path = self._path()
         if path is None:

@@ -1,0 +1,298 @@
+"""Validated set-up of an ISO 230-2 positioning run, from TOML (docs/setup-positioning.toml)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from processing.air_index import DEFAULT_EQUATION
+from processing.environment import EnvironmentSettings
+from processing.iso230_2 import LONG_AXIS_MM
+from saved_runs.errors import SetupError
+from saved_runs.evaluation.tolerance import positioning_tolerance
+from saved_runs.toml_file import TomlTable, naming_source, read_toml
+
+from .cycles import CYCLES, Stop, check_targets, cycle, linear_targets, rotary_targets
+from .shared_tables import DeviceSetup, check_devices, controller_timing_keys, scenario_path
+
+TRIGGERS = ("in-position", "stability", "manual")
+DIALECTS = ("fanuc", "linuxcnc")
+AXIS_TYPES = ("linear", "rotary")
+
+
+@dataclass(frozen=True)
+class EnvironmentSetup:
+    """run.json ``setup.environment`` (docs/run-format.md): what ``reading_mm`` already contains."""
+
+    refractive_index_assumed: float = 1.0
+    wavelength_nm: float = 632.991
+    expansion_ppm_per_k: float = 11.5
+    dead_path_mm: float = 0.0
+    abbe_offset_mm: tuple[float, float] = (0.0, 0.0)
+    co2_ppm: float = 450.0
+    readings_compensated: bool = False
+    index_equation: str = DEFAULT_EQUATION  # "ciddor" or "edlen" (docs/positioning.md)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**asdict(self), "abbe_offset_mm": list(self.abbe_offset_mm)}
+
+
+@dataclass(frozen=True)
+class TriggerSetup:
+    """How each point is captured: ``in-position`` (PLC register), ``stability`` (the position stays
+    within ``stability_window`` (um or arcsec) for ``dwell_s`` near a target), or ``manual``."""
+
+    mode: str = "in-position"
+    dwell_s: float = 2.0
+    timeout_s: float = 120.0
+    stability_window: float = 1.0
+    near: float = 0.5  # mm or deg: how close to the target the stability check starts
+    poll_s: float = 0.05
+
+    def __post_init__(self) -> None:
+        if self.mode not in TRIGGERS:
+            raise SetupError(f"[trigger] mode must be one of {', '.join(TRIGGERS)}, got {self.mode!r}")
+        for name in ("dwell_s", "timeout_s", "stability_window", "near", "poll_s"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise SetupError(f"[trigger] {name} must be a number >= 0, got {v}")
+
+
+@dataclass(frozen=True)
+class SimulatedAxisSetup:
+    """Errors of the simulated machine axis (``--simulate``): um (linear) or arcsec (rotary), and the
+    conditions its controller measures (air C, hPa, %RH, material C, drift C per hour of machine time)."""
+
+    pitch_amplitude: float = 4.0
+    pitch_wavelength: float = 700.0
+    slope_per_m: float = 6.0
+    backlash: float = 3.0
+    periodic: float = 0.6
+    periodic_period: float = 10.0
+    thermal_per_m_per_h: float = 4.0
+    noise: float = 0.15
+    air_temp_c: float = 20.4
+    air_pressure_hpa: float = 1012.8
+    humidity_pct: float = 45.0
+    material_temp_c: float = 20.2
+    drift_c_per_h: float = 0.05
+    plc_bits_left_set: bool = False  # the PLC left in position / cycle finished set from an earlier cycle
+    program_start_s: float = 0.0  # the program reaches its first block this long after Cycle Start
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.program_start_s) and self.program_start_s >= 0):
+            raise SetupError(f"[simulation] program_start_s must be a number >= 0, got {self.program_start_s}")
+
+    def errors(self) -> tuple[float, ...]:
+        """The error-model values (without the environment)."""
+        return (self.pitch_amplitude, self.pitch_wavelength, self.slope_per_m, self.backlash, self.periodic,
+                self.periodic_period, self.thermal_per_m_per_h, self.noise)
+
+
+@dataclass(frozen=True)
+class PositioningSetup:
+    """Everything an ISO 230-2 positioning run needs before it starts."""
+
+    axis_name: str
+    axis_type: str
+    targets: tuple[float, ...]
+    runs: int = 5
+    cycle: str = "linear"
+    overrun: float = 5.0
+    feed_per_min: float = 2000.0
+    datum: float = 0.0
+    trigger: TriggerSetup = field(default_factory=TriggerSetup)
+    environment: EnvironmentSetup = field(default_factory=EnvironmentSetup)
+    devices: DeviceSetup = field(default_factory=DeviceSetup)
+    dialect: str = "fanuc"
+    program_number: int = 1000
+    max_deviation: float = 1.0  # mm or deg: a reading further than this from its target is rejected
+    simulation: SimulatedAxisSetup = field(default_factory=SimulatedAxisSetup)
+    long_axis: bool = False
+    machine: str = ""
+    operator: str = ""
+    notes: str = ""
+    tolerance: dict[str, float] = field(default_factory=dict)  # [tolerance], acquisition.tolerance
+    scenario: str = ""  # [simulation] scenario: the file --simulate takes its effects from ("" = none)
+
+    def __post_init__(self) -> None:
+        if self.axis_type not in AXIS_TYPES:
+            raise SetupError(f"[axis] type must be linear or rotary, got {self.axis_type!r}")
+        if self.cycle not in CYCLES:
+            raise SetupError(f"[axis] cycle must be one of {', '.join(CYCLES)}, got {self.cycle!r}")
+        if self.dialect not in DIALECTS:
+            raise SetupError(f"[gcode] dialect must be one of {', '.join(DIALECTS)}, got {self.dialect!r}")
+        if not (math.isfinite(self.feed_per_min) and self.feed_per_min > 0):
+            raise SetupError(f"[axis] feed must be positive, got {self.feed_per_min}")
+        try:
+            self.stops()  # validates targets, runs and overrun
+        except SetupError as exc:  # the cycle's own words name its arguments; the set-up's keys live in [axis]
+            raise SetupError(f"[axis] {str(exc).replace('overrun ', f'overrun_{self.unit} ', 1)}") from None
+        if self.trigger.mode == "stability" and (problem := self.stability_problem()):
+            raise SetupError(f"[trigger] mode = \"stability\" cannot follow this cycle: {problem}")
+
+    def stability_problem(self) -> str | None:
+        """Why the stability trigger cannot tell every stop of this cycle apart (one line), or None.
+
+        It polls the interferometer every ``poll_s`` (plus the controller's measurement time) and
+        must see (1) the axis leave each target's ``near`` window at every reversal, which takes
+        2 (overrun - near) / feed and must last two polls; (2) neighbouring targets' windows apart;
+        (3) two readings half a dwell apart inside the dwell, the first up to a poll after arrival.
+        """
+        u, tr = self.unit, self.trigger
+        if tr.near <= 0 or tr.stability_window <= 0 or tr.dwell_s <= 0 or tr.poll_s <= 0:
+            return f"dwell_s, poll_s, near_{u} and the stability window must all be positive"
+        beyond_s = 2 * (self.overrun - tr.near) / (self.feed_per_min / 60.0)
+        if beyond_s < 2 * tr.poll_s:
+            return (f"at each reversal the axis is beyond near_{u} = {tr.near:g} for {max(beyond_s, 0.0):.3g} s "
+                    f"(overrun_{u} {self.overrun:g} at feed {self.feed_per_min:g} {u}/min), shorter than two polls "
+                    f"(poll_s {tr.poll_s:g}): the direction change would go unseen; raise overrun_{u}, lower the "
+                    f"feed or poll_s")
+        gap = min(b - a for a, b in zip(self.targets, self.targets[1:], strict=False))
+        if gap <= 2 * tr.near:
+            return (f"targets {gap:g} {u} apart lie inside each other's near_{u} = {tr.near:g} windows; "
+                    f"lower near_{u} below {gap / 2:g}")
+        if tr.poll_s > tr.dwell_s / 4:
+            return (f"poll_s {tr.poll_s:g} s is too long for dwell_s {tr.dwell_s:g} s: a stable capture needs "
+                    f"readings half a dwell apart inside the dwell (poll_s <= dwell_s / 4)")
+        return None
+
+    @property
+    def unit(self) -> str:
+        return "deg" if self.axis_type == "rotary" else "mm"
+
+    def stops(self) -> list[Stop]:
+        return cycle(self.cycle, self.targets, self.runs, self.overrun)
+
+    def measured_stops(self) -> list[Stop]:
+        """The stops where a point is captured, in the order the cycle reaches them."""
+        return [s for s in self.stops() if s.target_index]
+
+    def to_run_setup(self) -> dict[str, Any]:
+        """run.json ``setup`` of a positioning run (docs/run-format.md, version 2)."""
+        u = self.unit
+        return {
+            "axis_name": self.axis_name,
+            f"targets_{u}": list(self.targets),
+            "runs": self.runs,
+            "cycle": self.cycle,
+            f"overrun_{u}": self.overrun,
+            "trigger": self.trigger.mode,
+            "dwell_s": self.trigger.dwell_s,
+            f"feed_{u}_min": self.feed_per_min,
+            f"datum_{u}": self.datum,
+            "long_axis": self.long_axis,
+            "trigger_options": asdict(self.trigger),
+            f"max_deviation_{u}": self.max_deviation,
+            "gcode": {"dialect": self.dialect, "program_number": self.program_number},
+            "environment": self.environment.to_dict(),
+            "devices": asdict(self.devices),
+            **({"tolerance": dict(self.tolerance)} if self.tolerance else {}),
+        }
+
+    def header(self) -> dict[str, Any]:
+        return {"machine": self.machine, "axis": self.axis_name, "operator": self.operator, "notes": self.notes,
+                "axis_type": self.axis_type, "setup": self.to_run_setup()}
+
+
+def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> PositioningSetup:
+    """Build and validate a :class:`PositioningSetup` from the TOML structure; every refusal names ``source``
+    (the set-up file) first."""
+    return naming_source(_positioning_setup, data, source)
+
+
+def _positioning_setup(data: dict[str, Any], source: str) -> PositioningSetup:
+    top = TomlTable(source, "", data)
+    kind = top.get("kind", str, "positioning")
+    if kind != "positioning":
+        raise SetupError(f"{source}: kind is {kind!r}; this command needs a positioning setup")
+    text = {k: top.get(k, str, "") for k in ("machine", "operator", "notes")}
+    ax = top.table("axis")
+    axis_type = ax.get("type", str, "linear")
+    if axis_type not in AXIS_TYPES:
+        raise SetupError(f"{source}: [axis] type must be linear or rotary, got {axis_type!r}")
+    u = "deg" if axis_type == "rotary" else "mm"
+    name = ax.get("name", str, "C" if axis_type == "rotary" else "X")
+    seed = ax.get("seed", int, 0)
+    explicit = ax.get(f"targets_{u}", list, None)
+    allow_nonconforming = ax.get("allow_nonconforming_targets", bool, False)
+    start = ax.get(f"start_{u}", float, 0.0)
+    end = ax.get(f"end_{u}", float, 360.0 if axis_type == "rotary" else None)
+    long_axis = False
+    if explicit is not None:
+        if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in explicit):
+            raise SetupError(f"{source}: [axis] targets_{u} must be a list of numbers")
+        targets = tuple(float(v) for v in explicit)
+    elif end is None:
+        raise SetupError(f"{source}: [axis] give end_{u} (targets are generated per ISO 230-2) or targets_{u}")
+    elif axis_type == "rotary":
+        targets = rotary_targets(start, end, seed=seed, per_rev=ax.get("targets_per_rev", int, 8))
+    else:
+        targets = linear_targets(start, end, seed=seed)
+        long_axis = end - start > LONG_AXIS_MM
+    runs = ax.get("runs", int, 1 if long_axis else 5)
+    cyc = ax.get("cycle", str, "linear")
+    overrun = ax.get(f"overrun_{u}", float, 5.0 if u == "mm" else 2.0)
+    feed = ax.get(f"feed_{u}_min", float, 2000.0 if u == "mm" else 1800.0)
+    datum = ax.get(f"datum_{u}", float, start)
+    max_dev = ax.get(f"max_deviation_{u}", float, 1.0 if u == "mm" else 0.1)
+
+    tr = top.table("trigger")
+    d = TriggerSetup()
+    trigger = TriggerSetup(
+        mode=tr.get("mode", str, d.mode), dwell_s=tr.get("dwell_s", float, d.dwell_s),
+        timeout_s=tr.get("timeout_s", float, d.timeout_s),
+        stability_window=tr.get("stability_window_arcsec" if u == "deg" else "stability_window_um", float,
+                                d.stability_window),
+        near=tr.get(f"near_{u}", float, d.near), poll_s=tr.get("poll_s", float, d.poll_s),
+    )
+    en = top.table("environment")
+    e = EnvironmentSetup()
+    environment = EnvironmentSetup(
+        refractive_index_assumed=en.get("refractive_index_assumed", float, e.refractive_index_assumed),
+        wavelength_nm=en.get("wavelength_nm", float, e.wavelength_nm),
+        expansion_ppm_per_k=en.get("expansion_ppm_per_k", float, e.expansion_ppm_per_k),
+        dead_path_mm=en.get("dead_path_mm", float, e.dead_path_mm),
+        abbe_offset_mm=en.vector("abbe_offset_mm", 2, list(e.abbe_offset_mm)),  # type: ignore[arg-type]
+        co2_ppm=en.get("co2_ppm", float, e.co2_ppm),
+        readings_compensated=en.get("readings_compensated", bool, e.readings_compensated),
+        index_equation=en.get("index_equation", str, e.index_equation),
+    )
+    try:  # the checks processing makes, now rather than after the run is captured
+        EnvironmentSettings.from_dict(environment.to_dict())
+    except ValueError as exc:
+        raise SetupError(f"{source}: {str(exc).replace('setup.environment.', '[environment] ')}") from None
+    ctl = top.table("controller")
+    devices = DeviceSetup(sensor_url="", controller_url=ctl.get("url", str, ""),
+                          word_order=ctl.get("word_order", str, "ABCD"),
+                          environment_url=top.table("transmitter").get("url", str, ""),
+                          **controller_timing_keys(ctl))
+    check_devices(devices, source, sensor=False)
+    gc = top.table("gcode")
+    dialect, program_number = gc.get("dialect", str, "fanuc"), gc.get("program_number", int, 1000)
+    sim = top.table("simulation")
+    s = SimulatedAxisSetup()
+    simulation = SimulatedAxisSetup(**{k: sim.get(k, bool if isinstance(v, bool) else float, v)
+                                       for k, v in asdict(s).items()})
+    tolerance = positioning_tolerance(top.table("tolerance").data, "arcsec" if axis_type == "rotary" else "um",
+                                      source)
+    scenario = scenario_path(sim.get("scenario", str, ""), source)
+    for t in (top, ax, tr, en, ctl, gc, sim):
+        t.check_unknown()
+    setup = PositioningSetup(
+        axis_name=name, axis_type=axis_type, targets=targets, runs=runs, cycle=cyc, overrun=overrun,
+        feed_per_min=feed, datum=datum, trigger=trigger, environment=environment, devices=devices,
+        dialect=dialect, program_number=program_number,
+        max_deviation=max_dev, simulation=simulation, long_axis=long_axis, tolerance=tolerance,
+        scenario=scenario, **text,
+    )
+    if explicit is not None:  # generated targets follow the rule by construction
+        span = end - start if end is not None and axis_type == "linear" else None
+        check_targets(targets, axis_type, span, allow_nonconforming=allow_nonconforming)
+    return setup
+
+
+def load_positioning_setup(path: Path | str) -> PositioningSetup:
+    return positioning_setup_from_dict(read_toml(path), str(path))

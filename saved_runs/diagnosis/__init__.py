@@ -1,0 +1,1 @@
+"""``guideway diagnose``: model files, the diagnosis of a run against its model, and its report."""

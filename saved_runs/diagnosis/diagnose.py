@@ -1,0 +1,273 @@
+"""``guideway diagnose``: where a run and its model disagree, which missing effect explains it,
+and the gap shrinking as the effects are added (docs/diagnosis.md).
+
+Reads the run and the model file, builds the run's observations (processing/diagnosis/
+observations.py: positioning deviations after environmental compensation; straightness heights
+by the exact decoupling and the interferometer's X channel), runs the selection loop on every
+channel (processing/diagnosis/select.py) and presents the result: one JSON object, a terminal
+summary, an HTML report with a plot per step, and the final model as a reusable model file.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from processing.air_index import air_index
+from processing.decoupling import decouple, sensor_height_um
+from processing.diagnosis.observations import Observations, positioning_observations, straightness_observations
+from processing.diagnosis.select import ChannelDiagnosis, Rule, diagnose_channel
+from processing.effects import Effect
+from processing.environment import EnvironmentSettings
+from processing.passes import check_order
+
+from ..errors import RunFormatError, UserError
+from ..evaluation.limits import out_of_range
+from ..evaluation.positioning import positioning_deviations
+from ..evaluation.straightness import check_finite, run_geometry
+from ..store.files import write_text_atomic
+from ..store.reader import LoadedRun, load_run
+from .model_file import EffectModel, empty_model, load_model, model_toml
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """The diagnosis of one run: a :class:`ChannelDiagnosis` per channel, the primary one first."""
+
+    run: LoadedRun
+    model: EffectModel
+    channels: tuple[ChannelDiagnosis, ...]
+    notes: tuple[str, ...] = ()
+
+    @property
+    def primary(self) -> ChannelDiagnosis:
+        return self.channels[0]
+
+    @property
+    def named(self) -> list[str]:
+        return [name for ch in self.channels for name in ch.named]
+
+    @property
+    def ambiguous(self) -> list[list[str]]:
+        return [list(g) for ch in self.channels for g in ch.ambiguous]
+
+    def final_effects(self) -> list[tuple[Effect, dict[str, Any], str]]:
+        """Every effect of the final model with its standard errors and the channel it acts on."""
+        out = []
+        for ch in self.channels:
+            for effect, se in zip(ch.final.effects, ch.final.se, strict=True):
+                out.append((effect, se, ch.obs.channel))
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """The object ``guideway diagnose --json`` prints (docs/diagnosis.md)."""
+        p = self.primary
+        steps = []
+        for ch in self.channels:
+            for s in ch.steps:
+                steps.append({"effect": s.test.effect.type, "label": s.test.effect.label, "channel": ch.obs.channel,
+                              "params": _params(s.effect), "se": _clean(s.fit.se[-1]), "rms_um": s.fit.rms_um,
+                              "max_um": s.fit.max_um, "noise_um": s.noise.sigma_um, "evidence": s.test.evidence(),
+                              "evidence_in_final": s.in_final.evidence() if s.in_final else None,
+                              "ambiguous_with": list(s.ambiguous_with)})
+        out = {
+            "kind": self.run.kind,
+            "run": str(self.run.path),
+            "model": self.model.source,
+            "channel": p.obs.channel,
+            "baseline": _summary(p.baseline),
+            "steps": steps,
+            "final": {**_summary(p.final),
+                      "model": [{**effect.to_dict(), "se": _clean(se), "channel": ch}
+                                for effect, se, ch in self.final_effects()]},
+            "named": self.named,
+            "ambiguous": self.ambiguous,
+            "noise_um": p.noise.sigma_um,
+            "noise": {"source": p.noise.source, "dof": p.noise.dof, "baseline_um": p.baseline_noise.sigma_um},
+            "disagreement": p.disagreement,
+            "not_testable": {k: v for ch in self.channels for k, v in ch.not_testable.items()},
+            "candidates": [{"effect": t.effect.label, **t.evidence()} for t in p.last_round],
+            "rule": p.rule.to_dict(),
+            "notes": list(self.notes),
+            "channels": {ch.obs.channel: {"points": ch.obs.n, "baseline": _summary(ch.baseline),
+                                          "final": _summary(ch.final), "noise_um": ch.noise.sigma_um,
+                                          "noise_source": ch.noise.source, "named": ch.named,
+                                          "cv_folds": ch.obs.fold_basis, "stands_out": _stands_out(ch),
+                                          "disagreement": ch.disagreement} for ch in self.channels},
+        }
+        return _clean(out)
+
+    def print_summary(self, stream: TextIO) -> None:
+        for ch in self.channels:
+            o = ch.obs
+            noise = ch.baseline_noise
+            print(f"{o.channel} channel ({o.n} points): baseline RMS {ch.baseline.rms_um:.3f} um, max "
+                  f"{ch.baseline.max_um:.3f} um; noise {noise.sigma_um:.3f} um ({noise.source})", file=stream)
+            for region, info in ch.disagreement.items():
+                if isinstance(info, dict) and info.get("stand_out"):
+                    worst = ", ".join(f"{g['group']} {g['mean_um']:+.3f} um (z {g['z']:+.1f})"
+                                      for g in info["stand_out"][:4])
+                    print(f"  stands out by {region}: {worst}" + (" ..." if len(info["stand_out"]) > 4 else ""),
+                          file=stream)
+            for i, s in enumerate(ch.steps, start=1):
+                tag = f"ambiguous with {', '.join(s.ambiguous_with)} (not named)" if s.ambiguous_with else "named"
+                together = ""
+                if not s.test.significant and s.in_final is not None:
+                    together = (f"; significant only with the later steps: in the final model dBIC "
+                                f"{s.in_final.delta_bic:.1f}, p {s.in_final.p_value:.2g}")
+                print(f"  step {i}: {s.test.effect.label} {tag}: {format_params(s.effect, s.fit.se[-1])}; "
+                      f"RMS {s.fit.rms_um:.3f} um, max {s.fit.max_um:.3f} um "
+                      f"(dBIC {s.test.delta_bic:.1f}, p {s.test.p_value:.2g}{together})", file=stream)
+            if not ch.steps:
+                print("  nothing significant is missing from the model", file=stream)
+            print(f"  final: RMS {ch.final.rms_um:.3f} um, max {ch.final.max_um:.3f} um, "
+                  f"noise {ch.noise.sigma_um:.3f} um", file=stream)
+        for note in self.notes:
+            print(f"note: {note}", file=stream)
+        named = ", ".join(self.named) or "none"
+        print(f"named: {named}", file=stream)
+        for group in self.ambiguous:
+            print(f"ambiguous (cannot be told apart on this run): {' / '.join(group)}", file=stream)
+
+    def model_file_text(self) -> str:
+        """The final model as a model file (fitted values; the effects stay free so a later run refits them)."""
+        entries = []
+        added_effects = {id(e) for ch in self.channels for e in ch.final.effects[len(ch.model):]}
+        for effect, se, channel in self.final_effects():
+            added = id(effect) in added_effects
+            comment = (f"{'added by the diagnosis' if added else 'from the model'} ({channel} channel): "
+                       f"{format_params(effect, se) if effect.free else 'fixed'}")
+            entries.append((effect, comment))
+        header = [f"model of run {self.run.path} by guideway diagnose (docs/diagnosis.md)",
+                  f"start model: {self.model.source}",
+                  f"final RMS {self.primary.final.rms_um:.4f} um, noise {self.primary.noise.sigma_um:.4f} um"]
+        return model_toml(self.run.kind, entries, header)
+
+
+def _stands_out(ch: ChannelDiagnosis) -> list[str]:
+    """The groupings (position, run, direction, time) in which some group of the channel's residual under
+    the model stands out beyond the noise."""
+    return [k for k, v in ch.disagreement.items() if isinstance(v, dict) and v.get("stand_out")]
+
+
+def _summary(fit: Any) -> dict[str, float]:
+    return {"rms_um": fit.rms_um, "max_um": fit.max_um}
+
+
+def _params(e: Effect) -> dict[str, Any]:
+    return {k: (list(v) if isinstance(v, tuple) else v) for k, v in e.params.items() if v is not None}
+
+
+def _clean(obj: Any) -> Any:
+    """JSON-safe: tuples to lists, numpy scalars to floats, NaN/inf to None."""
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, bool | np.bool_):
+        return bool(obj)
+    if isinstance(obj, int | np.integer):
+        return int(obj)
+    if isinstance(obj, float | np.floating):
+        return float(obj) if math.isfinite(obj) else None
+    return obj
+
+
+def format_params(e: Effect, se: dict[str, Any]) -> str:
+    """``name = value ± se`` of an effect's parameters (tables: their size only)."""
+    parts = []
+    for name, v in e.params.items():
+        if v is None:
+            continue
+        if isinstance(v, tuple):
+            parts.append(f"{name} [{len(v)} values]")
+        elif isinstance(v, str):
+            parts.append(f"{name} = {v}")
+        else:
+            s = se.get(name)
+            parts.append(f"{name} = {v:.4g}" + (f" ± {s:.2g}" if isinstance(s, float) and math.isfinite(s) else ""))
+    return ", ".join(parts)
+
+
+# -- the run's observations -------------------------------------------------------------------------------------
+def run_observations(run: LoadedRun, model: EffectModel) -> list[Observations]:
+    """The observed channels of ``run``, primary first."""
+    if run.kind == "positioning":
+        return [_positioning(run)]
+    return list(_straightness(run, any(e.type == "profile_table" for e in model.effects)))
+
+
+def _positioning(run: LoadedRun) -> Observations:
+    if run.meta.get("axis_type", "linear") != "linear":
+        raise UserError(f"{run.path}: a rotary axis; the diagnosis covers linear positioning and straightness runs")
+    deviations, _, _ = positioning_deviations(run)
+    pts = run.points
+    try:
+        settings = EnvironmentSettings.from_dict((run.meta.get("setup") or {}).get("environment"))
+    except ValueError as exc:
+        raise RunFormatError(f"{run.path}/run.json: {exc}") from None
+    air = [pts[c].to_numpy(dtype=float) for c in ("air_temp_c", "air_pressure_hpa", "humidity_pct")]
+    index = None
+    if all(np.all(np.isfinite(a)) for a in air):
+        index = air_index(air[0], air[1] * 100.0, air[2], co2_ppm=settings.co2_ppm,
+                          wavelength_nm=settings.wavelength_nm, equation=settings.index_equation)
+    return positioning_observations(pts, deviations["deviation"].to_numpy(dtype=float), index)
+
+
+def _straightness(run: LoadedRun, reference: bool) -> tuple[Observations, Observations]:
+    geometry = run_geometry(run)
+    if len(run.points) < 3:
+        raise RunFormatError(f"{run.path}: {len(run.points)} point(s) recorded; too few to diagnose")
+    check_finite(run, "exact")
+    try:
+        check_order(run.points)
+    except ValueError as exc:
+        raise RunFormatError(f"{run.path}: {exc}") from None
+    per_point = decouple(run.points, geometry, "exact")
+    sensor = sensor_height_um(run.points["sensor_mm"].to_numpy(dtype=float), geometry.sensor_sign)
+    return straightness_observations(run.points, per_point, sensor, reference=reference)
+
+
+def diagnose_run(run_dir: Path | str, model: EffectModel | Path | str | None = None,
+                 rule: Rule | None = None, *, accept_out_of_range: bool = False) -> Diagnosis:
+    """Diagnose the run in ``run_dir`` against ``model`` (a model file, a loaded model, or None: nothing known).
+
+    Values outside the set-up's validation limits are refused as ``process`` refuses them
+    (saved_runs.evaluation.limits) unless ``accept_out_of_range``; accepted ones are listed in the notes."""
+    run = load_run(run_dir)
+    accepted = out_of_range(run, accept=accept_out_of_range) if len(run.points) else ()
+    if model is None:
+        model = empty_model(run.kind)
+    elif not isinstance(model, EffectModel):
+        model = load_model(model)
+    if model.kind != run.kind:
+        raise UserError(f"{model.source} is a {model.kind} model; {run.path} is a {run.kind} run")
+    channels, notes = [], [f"accepted outside the set-up's limits: {a.text()}" for a in accepted]
+    observed = run_observations(run, model)
+    usable = [obs for obs in observed if obs.n >= 3]
+    rule = replace(rule or Rule(), channels=len(usable))  # alpha is shared by the channels of the run
+    for obs in observed:
+        notes += obs.notes
+        effects = [e for e in model.effects if e.spec.channel == obs.channel]
+        if obs.n < 3:
+            continue
+        try:
+            channels.append(diagnose_channel(obs, effects, rule))
+        except ValueError as exc:
+            raise UserError(f"{run.path}: {obs.channel} channel: {exc}") from None
+    if not channels:
+        raise RunFormatError(f"{run.path}: no channel holds enough points to diagnose")
+    return Diagnosis(run, model, tuple(channels), tuple(notes))
+
+
+def write_model(diagnosis: Diagnosis, path: Path | str) -> Path:
+    path = Path(path)
+    try:
+        write_text_atomic(path, diagnosis.model_file_text())
+    except OSError as exc:
+        raise UserError(f"cannot write the model to {path}: {exc.strerror or exc}") from None
+    return path

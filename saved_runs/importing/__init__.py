@@ -1,0 +1,1 @@
+"""Run directories from data measured with another tool (``guideway import``)."""

@@ -1,0 +1,1 @@
+"""The files of an evaluation next to its run: ``RUN_DIR/results/`` tables, plots and summary.json."""

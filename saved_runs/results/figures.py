@@ -1,0 +1,33 @@
+"""What the result plots share: saving a figure atomically and a legend that covers no data."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+
+def save_figure(fig: Figure, path: Path) -> None:
+    """Save ``fig`` to ``path`` through a temporary file, then close it."""
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp)
+    plt.close(fig)
+    tmp.replace(path)
+
+
+def legend_above_data(ax: Axes, *, ncol: int = 1) -> None:
+    """Legend in the upper left corner, the y axis extended upwards so that no data lies
+    under it (whatever the shape of the curves)."""
+    legend = ax.legend(fontsize=8, loc="upper left", ncol=ncol)
+    fig = ax.figure
+    fig.tight_layout()  # measure in the final layout (the caller lays out again afterwards)
+    fig.canvas.draw()
+    bottom = legend.get_window_extent().transformed(ax.transAxes.inverted()).y0  # axes fraction
+    frac = max(bottom - 0.03, 0.35)  # where the current top of the data may go
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(lo, lo + (hi - lo) / frac)

@@ -1,0 +1,42 @@
+"""Files of ``guideway volumetric MACHINE.toml --out DIR`` (docs/volumetric.md, "Output"):
+
+* ``volumetric.csv`` — one row per grid pose: axis positions (``X_mm`` … ``C_deg``), the error
+  ``dx_um, dy_um, dz_um``, ``d_um`` = |d| and ``ex_urad, ey_urad, ez_urad``;
+* ``contributions.csv`` — the same poses, the first-order contribution of every group (an axis's
+  motion and location errors, ``squareness``, ``thermal``) as ``<group>_dx_um`` …;
+* ``summary.json`` — extremes with their poses, RMS, contributions, element ranking, notes;
+* ``report.html`` — the printable report with the error-field plots.
+
+Each file is replaced atomically.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from ..errors import UserError
+from ..store.files import write_json_atomic, write_text_atomic
+from .field import FieldResult, field_summary
+
+FILES = ("volumetric.csv", "contributions.csv", "summary.json", "report.html")
+
+
+def write_field(result: FieldResult, out_dir: Path | str, *, command: str = "") -> dict[str, Any]:
+    """Write the four files into ``out_dir`` (created if needed); return the summary object."""
+    from .report import volumetric_page  # matplotlib only when writing
+
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out} exists and is not a directory; choose another --out")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        summary = field_summary(result)
+        write_text_atomic(out / "volumetric.csv", result.table().to_csv(index=False, float_format="%.6f"))
+        write_text_atomic(out / "contributions.csv",
+                          result.contribution_table().to_csv(index=False, float_format="%.6f"))
+        write_json_atomic(out / "summary.json", summary)
+        write_text_atomic(out / "report.html", volumetric_page(result, summary, command).render())
+    except OSError as exc:
+        raise UserError(f"cannot write the results to {out}: {exc.strerror or exc}") from None
+    return summary

@@ -1,0 +1,1 @@
+"""Tests of the saved-runs package (everything done to a run directory)."""
