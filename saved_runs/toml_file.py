@@ -17,7 +17,6 @@ from typing import Any, TypeVar
 from .errors import SetupError
 
 
-# -- reading TOML ------------------------------------------------------------------------------
 class TomlTable:
     """One TOML table with typed, named access and a check for unknown keys."""
 
@@ -41,14 +40,14 @@ class TomlTable:
         if kind is float and isinstance(v, int) and not isinstance(v, bool):
             v = float(v)
         if isinstance(v, bool) and kind is not bool:
-            raise SetupError(f"{self._where(key)} must be a {type_name(kind)}, got {v!r}")
+            raise SetupError(f"{self._where(key)} must be a {_type_name(kind)}, got {v!r}")
         if not isinstance(v, kind):
-            raise SetupError(f"{self._where(key)} must be a {type_name(kind)}, got {v!r}")
+            raise SetupError(f"{self._where(key)} must be a {_type_name(kind)}, got {v!r}")
         return v
 
     def vector(self, key: str, n: int, default: Any = ...) -> tuple[float, ...]:
         v = self.get(key, list, default)
-        if not (isinstance(v, list | tuple) and len(v) == n and all(is_number(x) for x in v)):
+        if not (isinstance(v, list | tuple) and len(v) == n and all(_is_number(x) for x in v)):
             raise SetupError(f"{self._where(key)} must be a list of {n} numbers, got {v!r}")
         return tuple(float(x) for x in v)
 
@@ -64,11 +63,11 @@ class TomlTable:
                              f"(see the commented examples {self.examples})")
 
 
-def is_number(x: Any) -> bool:
+def _is_number(x: Any) -> bool:
     return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
 
 
-def type_name(kind: type | tuple[type, ...]) -> str:
+def _type_name(kind: type | tuple[type, ...]) -> str:
     names = {bool: "true/false", int: "whole number", float: "number", str: "string", list: "list", dict: "table"}
     if isinstance(kind, tuple):
         return " or ".join(names.get(k, k.__name__) for k in kind)
@@ -76,7 +75,8 @@ def type_name(kind: type | tuple[type, ...]) -> str:
 
 
 def read_toml(path: Path | str) -> dict[str, Any]:
-    """Parse a TOML set-up file; one-line errors for a missing or malformed file."""
+    """Parse a TOML file (set-up, scenario, model or machine file); one-line errors for a missing or
+    malformed file."""
     path = Path(path)
     try:
         return tomllib.loads(path.read_text(encoding="utf-8"))

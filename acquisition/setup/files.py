@@ -52,7 +52,7 @@ def _value(v: Any, where: str) -> str:
 
 def setup_toml_text(data: dict[str, Any]) -> str:
     """A set-up structure (keys, then one ``[table]`` per sub-table) as TOML text that
-    :func:`acquisition.setup.read_toml` reads back to the same structure."""
+    :func:`saved_runs.toml_file.read_toml` reads back to the same structure."""
     top = [f"{k} = {_value(v, k)}" for k, v in data.items() if not isinstance(v, dict)]
     lines = ["# guideway set-up (written by guideway tui; keys as in docs/setup-*.toml)", *top]
     for name, table in data.items():

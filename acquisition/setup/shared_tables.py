@@ -11,7 +11,7 @@ from drivers.modbus_link import parse_modbus_url
 from saved_runs.errors import SetupError
 from saved_runs.toml_file import TomlTable
 
-from ..rig import SENSOR_DRIVERS, ControllerTiming, SensorOptions, sensor_options_problem
+from ..rig import SENSOR_PROTOCOLS, ControllerTiming, SensorOptions, sensor_options_problem
 
 
 @dataclass(frozen=True)
@@ -49,9 +49,9 @@ CONTROLLER_SCHEMES = ("modbus-tcp://", "modbus-rtu:")
 def check_devices(devices: DeviceSetup, source: str, *, sensor: bool) -> None:
     """Sensor protocol and options, controller URL (scheme, options, device id) and timing,
     before any port is opened."""
-    if sensor and devices.sensor_protocol not in SENSOR_DRIVERS:
+    if sensor and devices.sensor_protocol not in SENSOR_PROTOCOLS:
         raise SetupError(f"{source}: [sensor] protocol {devices.sensor_protocol!r} is not supported; "
-                         f"use one of: {', '.join(SENSOR_DRIVERS)}")
+                         f"use one of: {', '.join(SENSOR_PROTOCOLS)}")
     if sensor and (problem := sensor_options_problem(devices.sensor_protocol, devices.sensor_options)):
         raise SetupError(f"{source}: [sensor] {problem}")
     if devices.controller_url and not devices.controller_url.startswith(CONTROLLER_SCHEMES):

@@ -93,7 +93,6 @@ class SimulatedRig:
         self._pty.stop()
 
 
-
 SAMPLE_LOG_LIMIT = 4096
 
 

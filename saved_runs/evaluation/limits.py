@@ -38,7 +38,34 @@ from ..store.reader import LoadedRun
 from .air import RANGES as AIR_INDEX_RANGES
 
 ARROW = {1: "up (+)", -1: "down (-)"}
-POSITIONING_DEFAULT_LIMIT = {"linear": 1.0, "rotary": 0.1}  # mm, deg (positioning_setup defaults)
+POSITIONING_DEFAULT_LIMIT = {"linear": 1.0, "rotary": 0.1}  # mm, deg (the positioning set-up's defaults)
+
+
+@dataclass(frozen=True)
+class ValidationSetup:
+    """``[validation]`` of a straightness set-up (run.json ``setup.validation``): the checks on every
+    capture (sensor stability, plausible ranges, jumps between neighbours), whose ranges are the
+    limits a saved run is evaluated within."""
+
+    max_sensor_std_um: float = 2.0
+    sensor_range_mm: tuple[float, float] = (-50.0, 50.0)
+    max_straightness_um: float = 1000.0
+    max_angle_urad: float = 5000.0
+    max_lin_um: float = 2000.0
+    jump_ifm_um: float = 50.0
+    jump_sensor_um: float = 50.0
+    capture_attempts: int = 3
+
+    def __post_init__(self) -> None:
+        lo, hi = self.sensor_range_mm
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise SetupError(f"[validation] sensor_range_mm must be [low, high] with low < high, got {[lo, hi]}")
+        if self.capture_attempts < 1:
+            raise SetupError(f"[validation] capture_attempts must be >= 1, got {self.capture_attempts}")
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, float) and not (math.isfinite(v) and v > 0):
+                raise SetupError(f"[validation] {f.name} must be a positive number, got {v}")
 
 
 @dataclass(frozen=True)
@@ -173,27 +200,3 @@ def print_out_of_range(found: tuple[OutOfRange, ...], stream: Any) -> None:
               f"(--accept-out-of-range): {'; '.join(f.text() for f in found[:3])}"
               + (" ..." if len(found) > 3 else ""), file=stream)
 
-
-@dataclass(frozen=True)
-class ValidationSetup:
-    """Checks on every capture: sensor stability, plausible ranges, jumps between neighbours."""
-
-    max_sensor_std_um: float = 2.0
-    sensor_range_mm: tuple[float, float] = (-50.0, 50.0)
-    max_straightness_um: float = 1000.0
-    max_angle_urad: float = 5000.0
-    max_lin_um: float = 2000.0
-    jump_ifm_um: float = 50.0
-    jump_sensor_um: float = 50.0
-    capture_attempts: int = 3
-
-    def __post_init__(self) -> None:
-        lo, hi = self.sensor_range_mm
-        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-            raise SetupError(f"[validation] sensor_range_mm must be [low, high] with low < high, got {[lo, hi]}")
-        if self.capture_attempts < 1:
-            raise SetupError(f"[validation] capture_attempts must be >= 1, got {self.capture_attempts}")
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, float) and not (math.isfinite(v) and v > 0):
-                raise SetupError(f"[validation] {f.name} must be a positive number, got {v}")

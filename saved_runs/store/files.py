@@ -15,6 +15,7 @@ from typing import Any
 
 
 def fsync_dir(path: Path) -> None:
+    """Flush a directory's entries to disk (a file created or renamed in it survives a crash)."""
     fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)

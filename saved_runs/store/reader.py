@@ -14,9 +14,7 @@ from typing import Any
 
 import pandas as pd
 
-from processing.columns import (
-    OPTIONAL_DEFAULTS,
-)
+from processing.columns import OPTIONAL_DEFAULTS
 
 from ..errors import RunFormatError
 from .format import FORMAT, KINDS, SUPPORTED_VERSIONS, point_columns
