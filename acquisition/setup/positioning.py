@@ -114,7 +114,7 @@ class PositioningSetup:
     machine: str = ""
     operator: str = ""
     notes: str = ""
-    tolerance: dict[str, float] = field(default_factory=dict)  # [tolerance], acquisition.tolerance
+    tolerance: dict[str, float] = field(default_factory=dict)  # [tolerance], saved_runs.evaluation.tolerance
     scenario: str = ""  # [simulation] scenario: the file --simulate takes its effects from ("" = none)
 
     def __post_init__(self) -> None:

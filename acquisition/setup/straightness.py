@@ -87,7 +87,7 @@ class StraightnessSetup:
     axis: str = ""
     operator: str = ""
     notes: str = ""
-    tolerance: dict[str, Any] = field(default_factory=dict)  # [tolerance], acquisition.tolerance
+    tolerance: dict[str, Any] = field(default_factory=dict)  # [tolerance], saved_runs.evaluation.tolerance
     scenario: str = ""  # [simulation] scenario: the file --simulate takes its effects from ("" = none)
 
     def __post_init__(self) -> None:
