@@ -8,6 +8,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..store.format import FORMAT  # the format's names only: the run browser's first paint loads no pandas
+
 
 @dataclass(frozen=True)
 class RunSummary:
@@ -30,8 +32,6 @@ class RunSummary:
 
 def run_summary(run_dir: Path) -> RunSummary:
     """Summary of ``run_dir`` from its run.json (never raises for a bad file: ``problem`` says why)."""
-    from ..store.format import FORMAT  # pandas only now: the run browser's first paint does not wait for it
-
     try:
         meta: Any = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
