@@ -246,7 +246,11 @@ def record(out: Path, checkout: Path) -> int:
         return 2
     work = out / "work"
     if out.exists():
-        shutil.rmtree(out)
+        if not out.is_dir() or {p.name for p in out.iterdir()} - {"streams", "files", "work"}:
+            print(f"outputs_snapshot: {out} holds other files; give a new directory or an earlier recording",
+                  file=sys.stderr)
+            return 2
+        shutil.rmtree(out)  # an earlier recording: replaced
     work.mkdir(parents=True)
     (work / "data.csv").write_text(import_csv())
     (work / "machine.toml").write_text(machine_toml(work / "st", work / "pos"))
