@@ -233,14 +233,19 @@ def exact(model: MachineModel, positions: Mapping[str, np.ndarray | float], cond
         relative.append((p, rel, rw))
     (p0, rel0, rw0), (p1, rel1, _) = relative
 
-    def turn(i: int, k: int) -> Any:  # (R_rel,actual · R_rel,nominalᵀ)[i][k]
+    def turn(i: int, k: int) -> Any:  # ΔR = (R_rel,actual · R_rel,nominalᵀ)[i][k]
         return rel1[i][0] * rel0[k][0] + rel1[i][1] * rel0[k][1] + rel1[i][2] * rel0[k][2]
 
     d = cp.vec_sub(p1, p0)
-    w = [np.arctan2(turn(2, 1), turn(2, 2)), -np.arcsin(np.clip(turn(2, 0), -1.0, 1.0)),
-         np.arctan2(turn(1, 0), turn(0, 0))]
+    delta_r: cp.Mat = [[turn(i, k) for k in range(3)] for i in range(3)]
     if frame == "machine":
-        d, w = cp.mat_vec(rw0, d), cp.mat_vec(rw0, w)
+        # The error rotation is a matrix, not a vector: in the machine frame it is
+        # R_W,nom · ΔR · R_W,nomᵀ, whose Z-Y-X angles differ from R_W,nom applied to ΔR's angles
+        # at second order (docs/volumetric.md, "Frames").
+        d = cp.mat_vec(rw0, d)
+        delta_r = cp.mat_mul(cp.mat_mul(rw0, delta_r), [[rw0[k][i] for k in range(3)] for i in range(3)])
+    w = [np.arctan2(delta_r[2][1], delta_r[2][2]), -np.arcsin(np.clip(delta_r[2][0], -1.0, 1.0)),
+         np.arctan2(delta_r[1][0], delta_r[0][0])]
     return VolumetricError(cp.stack(d, shape) * 1e3, cp.stack(w, shape) * 1e6, frame)
 
 

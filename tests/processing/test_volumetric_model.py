@@ -312,7 +312,8 @@ def test_squareness_is_the_angle_between_the_actual_axes_minus_90_degrees() -> N
 
 
 def test_machine_frame_is_the_workpiece_frame_turned_by_the_table(five_axis) -> None:  # noqa: ANN001
-    """With the rotary table C in the workpiece chain the two frames differ by the table's rotation."""
+    """With the rotary table C in the workpiece chain the two frames differ by the table's rotation.
+    First order is linear, so its orientation (a small rotation vector) turns like a vector."""
     _, model, cond = five_axis
     p = poses(10, seed=13)
     for evaluate in (first_order, exact):
@@ -321,9 +322,24 @@ def test_machine_frame_is_the_workpiece_frame_turned_by_the_table(five_axis) -> 
         turn = np.array([[np.cos(c), -np.sin(c), 0 * c], [np.sin(c), np.cos(c), 0 * c], [0 * c, 0 * c, 1 + 0 * c]])
         turn = np.moveaxis(turn, -1, 0)  # Rz(C) per pose: the nominal workpiece frame in the machine frame
         np.testing.assert_allclose(mc.position_um, np.einsum("nij,nj->ni", turn, wp.position_um), atol=1e-9)
+        tolerance = 1e-9 if evaluate is first_order else 1e-2  # exact: equal to first order only (next test)
         np.testing.assert_allclose(mc.orientation_urad, np.einsum("nij,nj->ni", turn, wp.orientation_urad),
-                                   atol=1e-9)
+                                   atol=tolerance)
         assert np.max(np.abs(mc.position_um - wp.position_um)) > 1.0
+
+
+def test_exact_machine_frame_orientation_is_the_angles_of_the_turned_matrix(five_axis) -> None:  # noqa: ANN001
+    """--frame machine --exact: the Z-Y-X angles of R_W·ΔR·R_Wᵀ (explicit 4×4 products in the test),
+    not R_W applied to ΔR's angles as if they were a vector (which is off by ~1e-4 µrad here and by
+    ~1.7 µrad at 100 times these errors)."""
+    data, model, cond = five_axis
+    p = poses(12, seed=17)
+    got = exact(model, p, cond, "machine")
+    ref = Reference(data)
+    for i in range(12):
+        d, e = ref.error({k: float(v[i]) for k, v in p.items()}, frame="machine")
+        np.testing.assert_allclose(got.position_um[i], d, rtol=0, atol=1e-7)
+        np.testing.assert_allclose(got.orientation_urad[i], e, rtol=0, atol=1e-7)
 
 
 def test_component_wise_rotations_match_the_matrix_ones() -> None:
@@ -343,3 +359,63 @@ def test_component_wise_rotations_match_the_matrix_ones() -> None:
     np.testing.assert_allclose(np.array(z, dtype=float), rot(0.1, -0.2, 0.3)[:3, :3], atol=1e-15)
     prod = cp.mat_mul(z, cp.mat_principal(1, 0.7))
     np.testing.assert_allclose(np.array(prod, dtype=float), (rot(0.1, -0.2, 0.3) @ rot_y(0.7))[:3, :3], atol=1e-15)
+
+
+def test_squareness_tilt_gives_cos_angle_minus_sin_s_exactly() -> None:
+    """docs/volumetric.md: one squareness term turns the tilted axis by S about u_P × u_Q, so
+    u_Q' = cos S·u_Q − sin S·u_P and cos∠(u_P, u_Q') = −sin S exactly (not −S: at S = 0.05 rad the two
+    differ by S³/6 ≈ 2e-5)."""
+    xs = Body("X", "prismatic", "tool", 0, 1.0, range=(0.0, 100.0))
+    ys = Body("Y", "prismatic", "tool", 1, 1.0, range=(0.0, 100.0))
+    s_urad = 50_000.0
+    model = MachineModel((), (xs, ys), (squareness_element((xs, ys), ("X", "Y"), s_urad, "X", "Y"),),
+                         primary="X", secondary="Y")
+    zero = {"X": np.asarray(0.0), "Y": np.asarray(0.0)}
+    moved = (exact(model, {**zero, "Y": np.asarray(100.0)}, {}).position_um
+             - exact(model, zero, {}).position_um) * 1e-3  # mm: q·(u_Y' − u_Y)
+    u_y = np.array([0.0, 1.0, 0.0]) + moved / 100.0
+    s = s_urad * 1e-6
+    assert np.linalg.norm(u_y) == pytest.approx(1.0, abs=1e-12)
+    assert float(u_y @ [1.0, 0.0, 0.0]) == pytest.approx(-math.sin(s), abs=1e-12)
+    assert abs(-math.sin(s) - (-s)) > 1e-5  # the old sentence's −S would be visibly wrong here
+
+
+def test_seed000_rotary_errors_convert_by_turning_translations_and_rotations() -> None:
+    """Seed 000 applies a rotary axis's error after its rotation, T_rot(θ)·E_seed; we apply it before,
+    E_ours·T_rot(θ).  The same machine needs δ_ours = R(θ)·δ_seed AND ε_ours = R(θ)·ε_seed (docs/
+    volumetric.md, "Seed 000"): checked against the seed's product written here with 4×4 matrices;
+    turning ε alone leaves the translation errors pointing the wrong way (2.8 µm at 90°)."""
+    from .volumetric_reference import rot, rot_z, trans
+
+    delta_seed_um = np.array([2.0, 0.0, 0.0])
+    eps_seed_urad = np.array([10.0, -6.0, 4.0])
+    tool_mm = np.array([200.0, 50.0, 100.0])
+    angles = np.arange(0.0, 361.0, 15.0)  # table nodes: the tables below are exact there
+
+    def table(values: np.ndarray) -> dict:
+        return {"positions": angles.tolist(), "values": values.tolist()}
+
+    def machine(turn_delta: bool) -> MachineModel:
+        turned_eps = np.array([rot_z(math.radians(a))[:3, :3] @ eps_seed_urad for a in angles])
+        turned_delta = np.array([rot_z(math.radians(a))[:3, :3] @ delta_seed_um for a in angles])
+        deltas = turned_delta if turn_delta else np.tile(delta_seed_um, (len(angles), 1))
+        errors = {k: table(deltas[:, i]) for i, k in enumerate(("EX", "EY", "EZ"))}
+        errors |= {k: table(turned_eps[:, i]) for i, k in enumerate(("EA", "EB", "EC"))}
+        data = {"kind": "machine", "name": "seed 000 table", "tool": {"offset_mm": tool_mm.tolist()},
+                "workpiece_chain": [{"name": "C", "type": "rotary", "direction": "+Z", "range": [0.0, 360.0],
+                                     "errors": errors}],
+                "tool_chain": [{"name": "S", "type": "fixed"}]}
+        return machine_from_dict(data, "seed000.toml").model
+
+    expected = []
+    for a in angles:
+        t_rot = rot_z(math.radians(a))
+        w_seed = t_rot @ trans(delta_seed_um * 1e-3) @ rot(*(eps_seed_urad * 1e-6))  # error after rotation
+        p = np.append(tool_mm, 1.0)
+        expected.append((np.linalg.inv(w_seed) @ p - np.linalg.inv(t_rot) @ p)[:3] * 1e3)
+    expected = np.array(expected)
+    both = exact(machine(True), {"C": angles}, {}).position_um
+    np.testing.assert_allclose(both, expected, rtol=0, atol=1e-4)  # second order in ε·L: < 1e-4 µm
+    eps_only = exact(machine(False), {"C": angles}, {}).position_um
+    gap = np.linalg.norm(eps_only - expected, axis=-1)  # |δ − R(θ)δ| = 2|δ| sin(θ/2): 2.8 µm at 90°
+    np.testing.assert_allclose(gap, 2 * 2.0 * np.abs(np.sin(np.radians(angles) / 2)), rtol=0, atol=1e-4)

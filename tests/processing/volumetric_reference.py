@@ -129,8 +129,10 @@ class Reference:
             mats.append(t)
         return mats[0], mats[1]
 
-    def error(self, pose: dict[str, float], cond: dict[str, float] | None = None, scale: float = 1.0
-              ) -> tuple[np.ndarray, np.ndarray]:
+    def error(self, pose: dict[str, float], cond: dict[str, float] | None = None, scale: float = 1.0,
+              frame: str = "workpiece") -> tuple[np.ndarray, np.ndarray]:
+        """In the ``machine`` frame the position error is turned by the nominal workpiece rotation R_W
+        and the error rotation ΔR = R1·R0ᵀ becomes the matrix R_W·ΔR·R_Wᵀ, whose Z-Y-X angles are given."""
         cond = {"temperature_c": 20.0, "time_h": 0.0, **self.m.get("conditions", {}), **(cond or {})}
         tool = np.array([*self.m.get("tool", {}).get("offset_mm", [0.0, 0.0, 0.0]), 1.0])
         w0, t0 = self.chains(pose, cond, 0.0)
@@ -139,4 +141,8 @@ class Reference:
         p1 = np.linalg.inv(w1) @ t1 @ tool
         r0 = (np.linalg.inv(w0) @ t0)[:3, :3]
         r1 = (np.linalg.inv(w1) @ t1)[:3, :3]
-        return (p1 - p0)[:3] * 1e3, euler_zyx(r1 @ r0.T) * 1e6
+        d, turn = (p1 - p0)[:3], r1 @ r0.T
+        if frame == "machine":
+            rw = w0[:3, :3]
+            d, turn = rw @ d, rw @ turn @ rw.T
+        return d * 1e3, euler_zyx(turn) * 1e6
