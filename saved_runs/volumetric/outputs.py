@@ -17,6 +17,7 @@ from typing import Any
 
 from ..errors import UserError
 from ..store.files import write_json_atomic, write_text_atomic
+from ..store.fixed_csv import fixed_csv
 from .field import FieldResult, field_summary
 
 FILES = ("volumetric.csv", "contributions.csv", "summary.json", "report.html")
@@ -32,9 +33,9 @@ def write_field(result: FieldResult, out_dir: Path | str, *, command: str = "") 
     try:
         out.mkdir(parents=True, exist_ok=True)
         summary = field_summary(result)
-        write_text_atomic(out / "volumetric.csv", result.table().to_csv(index=False, float_format="%.6f"))
-        write_text_atomic(out / "contributions.csv",
-                          result.contribution_table().to_csv(index=False, float_format="%.6f"))
+        for name, table in (("volumetric.csv", result.table()), ("contributions.csv", result.contribution_table())):
+            # the text of to_csv(float_format="%.6f"), formatted on whole arrays (a --grid 50 has 4.4 M values)
+            write_text_atomic(out / name, fixed_csv(list(table.columns), table.to_numpy(dtype=float)))
         write_json_atomic(out / "summary.json", summary)
         write_text_atomic(out / "report.html", volumetric_page(result, summary, command).render())
     except OSError as exc:
