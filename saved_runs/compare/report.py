@@ -137,8 +137,8 @@ def stations_section(page: HtmlPage, d: Any) -> None:
     la, lb = d.lines["a"], d.lines["b"]
     page.paragraph("A, B = deviation of each profile from its own least-squares line, fitted over the stations both "
                    f"runs measured (A: slope {la[0] * 1000:.3f} µm/m, B: {lb[0] * 1000:.3f} µm/m removed); change = "
-                   f"B − A; U = k·√(u_A² + u_B²) from the per-station standard uncertainties of the heights (GUM), "
-                   f"k = {d.k:g} (docs/compare.md).", "note")
+                   f"B − A; U = k·√(u_A² + u_B²), u = the per-station standard uncertainty of the height (GUM) "
+                   f"propagated through the removal of the line, k = {d.k:g} (docs/compare.md).", "note")
 
 
 def write_comparison_report(c: Comparison, out: Path | str, *, command: str = "") -> Path:

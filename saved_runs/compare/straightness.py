@@ -2,8 +2,9 @@
 
 Reference line: each profile's own least-squares line, fitted over the stations both runs measured,
 is removed from it (docs/compare.md says why).  Per common station the residuals r_a, r_b, the change
-r_b − r_a and its expanded uncertainty U = k · √(u_a² + u_b²) from the per-station standard
-uncertainties of the heights (GUM, the u_um of results/profile.csv), k = 2.  A station measured in one
+r_b − r_a and its expanded uncertainty U = k · √(u_a² + u_b²), k = 2, where u_a, u_b are the per-station
+standard uncertainties of the heights (GUM, the u_um of results/profile.csv) propagated through the
+removal of the line (:func:`residual_u`).  A station measured in one
 run only is listed with its residual against that run's line and no change.  The straightness values
 per reference line are set side by side, with their Monte Carlo U where evaluated."""
 
@@ -32,7 +33,7 @@ class StationChange:
     x_mm: float
     a: float | None  # residual from A's line (µm); None where A has no such station
     b: float | None
-    u_a: float | None  # standard uncertainty of A's height there (µm, k = 1)
+    u_a: float | None  # standard uncertainty of A's residual there (µm, k = 1)
     u_b: float | None
     k: float
 
@@ -64,6 +65,17 @@ def _profile(e: StraightnessEvaluation) -> tuple[np.ndarray, np.ndarray, np.ndar
          else np.full(len(p), np.nan))
     return (p["station"].to_numpy(dtype=int), p["x_mm"].to_numpy(dtype=float), p["height_um"].to_numpy(dtype=float),
             np.asarray(u, dtype=float))
+
+
+def residual_u(x: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Standard uncertainty (µm) of each residual from the least-squares line over the points x (mm) whose
+    heights have the independent standard uncertainties u (µm): r = (I − H) h with the hat matrix
+    H_ij = 1/n + (x_i − x̄)(x_j − x̄)/Sxx, so u(r_i)² = Σ_j (δ_ij − H_ij)² u_j².  An error common to every
+    station (the datum's) is a constant the line removes; the datum station itself (u = 0, the heights are
+    measured from it) gets the uncertainty of the line there."""
+    xm = x - x.mean()
+    hat = 1.0 / len(x) + np.outer(xm, xm) / np.sum(xm**2)
+    return np.sqrt(((np.eye(len(x)) - hat) ** 2) @ (u**2))
 
 
 def least_squares_line(x: np.ndarray, h: np.ndarray) -> tuple[float, float]:
@@ -107,8 +119,9 @@ class StraightnessComparison:
                                    "a": {"slope_um_per_mm": self.lines["a"][0], "intercept_um": self.lines["a"][1]},
                                    "b": {"slope_um_per_mm": self.lines["b"][0], "intercept_um": self.lines["b"][1]},
                                    "text": "each profile's own least-squares line over the common stations removed"},
-                "uncertainty": f"U = k * sqrt(u_a^2 + u_b^2), k = {self.k:g}: the per-station standard uncertainties "
-                               "of the two runs' heights (GUM), combined in quadrature",
+                "uncertainty": f"U = k * sqrt(u_a^2 + u_b^2), k = {self.k:g}: u of each run's residual, its "
+                               "per-station height u (GUM) propagated through the removal of its least-squares "
+                               "line, u(r_i)^2 = sum_j (delta_ij - H_ij)^2 u_j^2; the runs combined in quadrature",
                 "change": "b - a (run B's residual minus run A's)"}
 
 
@@ -140,6 +153,11 @@ def compare_straightness(a: StraightnessEvaluation, b: StraightnessEvaluation) -
     line_b = least_squares_line(x_b[ib], h_b[ib])
     r_a = h_a - (line_a[1] + line_a[0] * x_a)
     r_b = h_b - (line_b[1] + line_b[0] * x_b)
+    # the u of each common station's residual (the line removal propagated); a station of one run only keeps
+    # the u of its height (it takes no part in the fit and has no change)
+    u_a, u_b = u_a.copy(), u_b.copy()
+    u_a[ia] = residual_u(x_a[ia], u_a[ia])
+    u_b[ib] = residual_u(x_b[ib], u_b[ib])
     where_a = {int(s): i for i, s in enumerate(st_a)}
     where_b = {int(s): i for i, s in enumerate(st_b)}
     rows = []
