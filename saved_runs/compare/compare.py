@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any
 
 from ..evaluation.evaluate import evaluate_run
 from ..store.reader import LoadedRun, load_run
@@ -37,11 +37,6 @@ class Comparison:
         """(changes larger than their U, changes with a U)."""
         rows = [r for r in self.detail.matched() if r.significant is not None]
         return sum(bool(r.significant) for r in rows), len(rows)
-
-    def print_summary(self, stream: TextIO) -> None:
-        from .text import print_comparison
-
-        print_comparison(self, stream)
 
 
 def compare_runs(run_a: Path | str, run_b: Path | str, *, any_axis: bool = False, **options: Any) -> Comparison:

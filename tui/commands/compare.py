@@ -30,7 +30,9 @@ def run(args: argparse.Namespace) -> int:
         if written is not None:
             print(f"report written to {written}", file=sys.stderr)
     else:
-        comparison.print_summary(sys.stdout)
+        from saved_runs.compare.text import print_comparison
+
+        print_comparison(comparison, sys.stdout)
         if written is not None:
             print(f"report written to {written}")
     return 0
