@@ -301,3 +301,43 @@ def test_straightness_report_and_text(tmp_path: Path, straight: tuple[Path, Path
 def test_straightness_runs_with_different_blocks_are_refused(tmp_path: Path, straight: tuple[Path, Path]) -> None:
     other = simulate(tmp_path, "long", straightness_scenario([]).replace("length_mm = 50.0", "length_mm = 100.0"), 1)
     one_line_error(guideway("compare", straight[0], other), "50 mm block", "100 mm block")
+
+
+# -- hand data through guideway import: a rotary axis, a single run ------------------------------------------
+
+def import_run(tmp: Path, name: str, rows: list[tuple[int, int, float, float]], *extra: str) -> Path:
+    """A run imported from (run, direction, target, deviation) rows: rotary targets in deg, deviations in arcsec."""
+    text = "run,direction,target_deg,reading_deg\n" + "".join(
+        f"{r},{d},{t!r},{t + dev / 3600.0!r}\n" for r, d, t, dev in rows)
+    (tmp / f"{name}.csv").write_text(text)
+    res = guideway("import", "positioning", tmp / f"{name}.csv", "--out", tmp / name, "--axis-type", "rotary",
+                   "--compensated", "--axis", "C", *extra)
+    assert res.returncode == 0, res.stderr
+    return tmp / name
+
+
+def test_rotary_axis_in_arcsec(tmp_path: Path) -> None:
+    # 3 approaches per direction at 0, 90, 180, 270 deg; B turns 1.5 arcsec further at 180 deg moving +
+    dev_a = {1: [1.0, 2.0, 0.0], -1: [-1.0, -2.0, -1.5]}
+    targets = (0.0, 90.0, 180.0, 270.0)
+    rows_a = [(r + 1, d, t, dev_a[d][r]) for t in targets for d in (1, -1) for r in range(3)]
+    rows_b = [(r, d, t, v + (1.5 if (t, d) == (180.0, 1) else 0.0)) for r, d, t, v in rows_a]
+    out = compare_json(import_run(tmp_path, "a", rows_a), import_run(tmp_path, "b", rows_b))
+    assert out["unit"] == "arcsec" and out["target_unit"] == "deg"
+    row = next(r for r in out["targets"] if r["target_deg"] == 180.0 and r["direction"] == "+")
+    assert {"a_arcsec", "b_arcsec", "change_arcsec", "u_arcsec"} <= set(row) and "a_um" not in row
+    s = math.sqrt(((1.0 - 1.0) ** 2 + (2.0 - 1.0) ** 2 + (0.0 - 1.0) ** 2) / 2)  # s of 1, 2, 0 = 1
+    assert row["change_arcsec"] == pytest.approx(1.5, abs=1e-6)
+    assert row["u_arcsec"] == pytest.approx(2.0 * math.sqrt(2 * s**2 / 3), rel=1e-6)  # 1.633
+    assert row["significant"] is False  # 1.5 < 1.633: the change is not proven by 3 approaches each
+    other = [r for r in out["targets"] if r is not row]
+    assert all(r["change_arcsec"] == pytest.approx(0.0, abs=1e-6) and r["significant"] is False for r in other)
+
+
+def test_a_single_run_has_no_uncertainty_of_its_means(tmp_path: Path) -> None:
+    rows = [(1, d, t, 0.5 * d) for t in (0.0, 120.0, 240.0) for d in (1, -1)]
+    out = compare_json(import_run(tmp_path, "a", rows), import_run(tmp_path, "b", [(r, d, t, v + 3.0)
+                                                                                    for r, d, t, v in rows]))
+    assert all(r["change_arcsec"] == pytest.approx(3.0, abs=1e-6) for r in out["targets"])
+    assert all(r["u_arcsec"] is None and r["significant"] is None for r in out["targets"])
+    assert any("fewer than 2 approaches" in n for n in out["notes"])
