@@ -35,7 +35,7 @@ def positioning_overlay(d: PositioningComparison) -> PlotData:
                    if t.direction == direction and getattr(t, side) is not None]
             if pts:
                 series.append(Series(pts, styles[direction], f"{side.upper()} {name}", join=True))
-    return PlotData(series, x_label=f"target ({d.target_unit}) · mean {d.unit}: A dim, B bright; up green, down yellow",
+    return PlotData(series, x_label=f"target {d.target_unit} · A dim, B bright · up green, down yellow",
                     y_label=d.unit)
 
 
@@ -46,7 +46,7 @@ def straightness_overlay(d: Any) -> PlotData:
     ch = [(s.x_mm, s.change) for s in d.matched() if s.change is not None]
     return PlotData([Series(a, "dark_cyan", "A", join=True), Series(b, "bold cyan", "B", join=True),
                      Series(ch, "magenta", "change", join=True)],
-                    x_label="x mm · A dim cyan, B bright cyan, change B - A magenta", y_label="um")
+                    x_label="x mm · A dim, B bright cyan · change B - A magenta", y_label="um")
 
 
 class CompareScreen(Screen):
