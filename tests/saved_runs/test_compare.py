@@ -341,3 +341,19 @@ def test_a_single_run_has_no_uncertainty_of_its_means(tmp_path: Path) -> None:
     assert all(r["change_arcsec"] == pytest.approx(3.0, abs=1e-6) for r in out["targets"])
     assert all(r["u_arcsec"] is None and r["significant"] is None for r in out["targets"])
     assert any("fewer than 2 approaches" in n for n in out["notes"])
+
+
+def test_stations_of_one_run_only_are_listed_and_left_out_of_the_line(tmp_path: Path,
+                                                                       straight: tuple[Path, Path]) -> None:
+    short = simulate(tmp_path, "short", straightness_scenario([(2.5, 380.0, 0.7)]).replace("stations = 17",
+                                                                                            "stations = 14"), 3)
+    out = compare_json(straight[0], short, "--mc-trials", "0")
+    rows = out["stations"]
+    assert [(r["station"], r["only_in"]) for r in rows[13:]] == [(13, None), (14, "a"), (15, "a"), (16, "a")]
+    assert all(r["change_um"] is None and r["b_um"] is None and r["significant"] is None for r in rows[14:])
+    pa = processed(straight[0])
+    x = np.array([p["x_mm"] for p in pa["profile"]])
+    h = np.array([p["height_um"] for p in pa["profile"]])
+    line = np.polyfit(x[:14], h[:14], 1)  # A's line over the 14 stations both runs measured
+    np.testing.assert_allclose([r["a_um"] for r in rows], h - np.polyval(line, x), atol=1e-9)
+    assert any("run A only: 14, 15, 16" in n for n in out["notes"])
