@@ -171,6 +171,8 @@ class PositioningComparison:
 def compare_positioning(a: PositioningEvaluation, b: PositioningEvaluation) -> PositioningComparison:
     """Match the targets of two evaluated positioning runs and compute the change at each."""
     ra, rb = a.result, b.result
+    if ra.k != rb.k:  # both are evaluated with the same options; a guard for callers that are not
+        raise UserError(f"the runs were evaluated with different coverage factors ({ra.k:g}, {rb.k:g})")
     tol = TARGET_TOLERANCE[ra.target_unit]
     ta = ra.per_target["target"].to_numpy(dtype=float)
     tb = rb.per_target["target"].to_numpy(dtype=float)
@@ -201,6 +203,4 @@ def compare_positioning(a: PositioningEvaluation, b: PositioningEvaluation) -> P
     if any(r.only_in is None and r.expanded is None for r in rows):
         notes.append("where a run has fewer than 2 approaches at a target (a single run, the long-axis rule) the "
                      "uncertainty of its mean cannot be evaluated from the run: no U and no significance there")
-    if ra.k != rb.k:  # both are evaluated with the same options; a guard for callers that are not
-        raise UserError(f"the runs were evaluated with different coverage factors ({ra.k:g}, {rb.k:g})")
     return PositioningComparison(a, b, tuple(rows), tuple(notes))
