@@ -33,7 +33,7 @@ MAY_IMPORT = {
 MOCKS_IMPORTED_BY = Path("acquisition/simulated")  # the simulated rig: the only importer of mocks
 # saved_runs' sub-packages (and top modules), lowest first: each may import only what stands before it
 SAVED_RUNS_ORDER = ("errors", "toml_file", "store", "catalog", "importing", "results", "evaluation", "export",
-                    "report", "diagnosis", "volumetric")
+                    "report", "compare", "diagnosis", "volumetric")
 MAX_SHARE = 0.25
 HEAVY = ("numpy", "pandas", "scipy", "matplotlib", "textual")
 
