@@ -25,6 +25,8 @@ COMMAND_MODULES = (
     "report",
     "simulate",
     "diagnose",
+    "catalog",
+    "trend",
     "tui",
 )
 
