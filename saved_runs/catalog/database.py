@@ -107,6 +107,7 @@ class Catalog:
 
     engine: Any
     url: str
+    where: str = ""
 
     @property
     def dialect(self) -> str:
@@ -118,8 +119,11 @@ class Catalog:
     def __enter__(self) -> Catalog:
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: object) -> None:
         self.close()
+        if isinstance(exc, sa.exc.DBAPIError):  # the server went away or refused a statement half way
+            raise UserError(f"the catalogue at {self.where or self.url} failed: {_first_line(exc)}; check the "
+                            "server and run the command again (what was written before stays)") from None
 
 
 def _engine(u: Any) -> Any:
@@ -152,7 +156,7 @@ def open_catalog(url: str | None = None, *, create: bool = True) -> Catalog:
     reached is one line naming its host and port and what to check."""
     u = _parsed(catalog_url(url))
     engine = _engine(u)
-    cat = Catalog(engine, shown(u))
+    cat = Catalog(engine, shown(u), _where(u))
     try:
         _prepare(engine, create)
     except UserError:
