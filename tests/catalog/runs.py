@@ -36,6 +36,6 @@ def write_run(folder: Path, name: str, *, kind: str = "straightness", created: s
     if summary is not None:
         out = run / "results" / "summary.json"
         out.write_text(json.dumps(summary), encoding="utf-8")
-        later = (run / "run.json").stat().st_mtime_ns + 1_000_000
+        later = max((run / f).stat().st_mtime_ns for f in ("run.json", "points.csv")) + 1_000_000
         os.utime(out, ns=(later, later))
     return run
