@@ -68,6 +68,10 @@ class TrendScreen(Screen):
     SCREEN_NAME = "Trend"
     SUB_TITLE = SCREEN_NAME
     BINDINGS = [Binding("escape", "back", "back"), Binding("v", "next_value", "next value")]
+    DEFAULT_CSS = """
+    TrendScreen #trend-plot { height: 10; }
+    TrendScreen #trend-table { height: 1fr; }
+    """
 
     def __init__(self, catalog_url: str | None, machine: str, axis: str, value: str,
                  limit_um: float | None = None) -> None:
@@ -87,7 +91,6 @@ class TrendScreen(Screen):
         yield Footer()
 
     def on_mount(self) -> None:
-        self.query_one("#trend-plot", Plot).styles.height = 12
         try:
             view = browse_catalog(self.catalog_url)
             self.values = trend_values(view.entries, self.machine, self.axis) or [self.value]
