@@ -138,7 +138,8 @@ def _engine(u: Any) -> Any:
         # several processes may add at once: wait for the file lock rather than fail at once
         return sa.create_engine(u, connect_args={"timeout": 60})
     try:
-        import psycopg  # noqa: F401 - checked here so the message says what to install
+        if u.drivername == "postgresql+psycopg":
+            import psycopg  # noqa: F401 - checked here so the message says what to install
     except ImportError:
         raise UserError("a PostgreSQL catalogue needs the psycopg driver: pip install 'guideway[postgresql]'") from None
     return sa.create_engine(u, connect_args={"connect_timeout": CONNECT_TIMEOUT_S}, pool_pre_ping=True)
