@@ -37,13 +37,14 @@ class AddOutcome:
 
 
 def scan_run_dirs(folder: Path | str) -> list[Path]:
-    """Every directory under ``folder`` (at any depth, ``folder`` itself included) holding a run.json; the
-    results/ folders of runs are not entered."""
+    """Every directory under ``folder`` (at any depth, ``folder`` itself included) holding a run.json, and
+    every directory that could not be listed (so that adding it reports it as unreadable); the results/
+    folders of runs are not entered."""
     folder = Path(folder)
     if not folder.is_dir():
         raise UserError(f"--scan {folder}: not a folder; give the folder that holds the run directories")
     found = []
-    for here, dirs, files in os.walk(folder, onerror=None):
+    for here, dirs, files in os.walk(folder, onerror=lambda exc: found.append(Path(exc.filename))):
         if "run.json" in files:
             found.append(Path(here))
             dirs[:] = []  # a run directory holds no runs
@@ -110,8 +111,8 @@ def _still_there(path: str, uid: str) -> bool:
 
 
 def add_runs(cat: Catalog, run_dirs: Iterable[Path | str]) -> Iterator[AddOutcome]:
-    """Add each run directory to the catalogue, yielding what happened to each (in the order given);
-    an unreadable directory is reported and the others are added."""
+    """Add each run directory to the catalogue, yielding what happened to each (the unreadable ones first,
+    then the others in the order given): an unreadable directory is reported and the others are added."""
     read: list[RunFiles] = []
     for d in run_dirs:
         try:

@@ -16,7 +16,7 @@ from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Static
 
-from saved_runs.catalog.browse import browse_catalog, trend_values
+from saved_runs.catalog.browse import CatalogFilter, browse_catalog, trend_values
 from saved_runs.catalog.database import open_catalog
 from saved_runs.errors import UserError
 from saved_runs.trend.fit import parse_date, years_between
@@ -92,7 +92,7 @@ class TrendScreen(Screen):
 
     def on_mount(self) -> None:
         try:
-            view = browse_catalog(self.catalog_url)
+            view = browse_catalog(self.catalog_url, CatalogFilter(self.machine, self.axis))
             self.values = trend_values(view.entries, self.machine, self.axis) or [self.value]
         except UserError:
             pass  # load() says it
