@@ -27,6 +27,7 @@ from saved_runs.errors import SetupError, UserError
 from saved_runs.store.writer import RunStore
 
 from . import inposition  # noqa: F401 - registers the in-position message handlers
+from .cataloguing import add_completed_run, setup_catalog_url
 from .engine import RunEngine, RunOutcome, Subscriber
 from .live import DeviationCallback, HeightCallback, LiveDeviation, LiveProfile
 from .operators import AutoOperator, Operator, TerminalOperator
@@ -439,12 +440,18 @@ def acquire(kind: str, source: dict[str, Any] | None, source_name: str, out: Pat
     with the set-up stored in the run): ``guideway acquire`` and the TUI both start runs here.
 
     ``kwargs`` go to :func:`run_straightness` / :func:`run_positioning` (operator, subscribers, ...).
+    A completed run adds itself to the catalogue of the set-up's ``[catalog] url`` or ``GUIDEWAY_CATALOG``.
     """
+    res: AcquireResult | PositioningResult
     if kind == "straightness":
         setup = straightness_setup_from_dict(source, source_name) if source is not None else None
-        return run_straightness(setup, out, simulate=simulate, auto=auto, resume=resume, **kwargs)
-    if kind != "positioning":
+        res = run_straightness(setup, out, simulate=simulate, auto=auto, resume=resume, **kwargs)
+    elif kind == "positioning":
+        psetup = positioning_setup_from_dict(source, source_name) if source is not None else None
+        res = run_positioning(psetup, out, simulate=simulate, auto=auto, resume=resume, setup_source=source,
+                              **kwargs)
+    else:
         raise SetupError(f"unknown run kind {kind!r}; use straightness or positioning")
-    psetup = positioning_setup_from_dict(source, source_name) if source is not None else None
-    return run_positioning(psetup, out, simulate=simulate, auto=auto, resume=resume, setup_source=source,
-                           **kwargs)
+    if res.outcome.exit_status == "success":  # a completed run adds itself to a configured catalogue
+        add_completed_run(res.run_dir, setup_catalog_url(source), kwargs.get("stream", sys.stdout))
+    return res

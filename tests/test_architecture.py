@@ -10,7 +10,7 @@ level, inside a function (lazy) and under ``if TYPE_CHECKING:``.
 * No import cycle between modules.
 * No top-level package holds more than 25 % of the code lines.
 * The front ends share the services: no screen imports a command-line module.
-* ``guideway --help`` loads neither NumPy, pandas, SciPy, Matplotlib nor Textual.
+* ``guideway --help`` loads neither NumPy, pandas, SciPy, Matplotlib, Textual nor SQLAlchemy.
 """
 
 from __future__ import annotations
@@ -32,10 +32,10 @@ MAY_IMPORT = {
 }
 MOCKS_IMPORTED_BY = Path("acquisition/simulated")  # the simulated rig: the only importer of mocks
 # saved_runs' sub-packages (and top modules), lowest first: each may import only what stands before it
-SAVED_RUNS_ORDER = ("errors", "toml_file", "store", "catalog", "importing", "results", "evaluation", "export",
-                    "report", "compare", "diagnosis", "volumetric")
+SAVED_RUNS_ORDER = ("errors", "toml_file", "store", "importing", "results", "evaluation", "catalog", "export",
+                    "report", "compare", "trend", "diagnosis", "volumetric")
 MAX_SHARE = 0.25
-HEAVY = ("numpy", "pandas", "scipy", "matplotlib", "textual")
+HEAVY = ("numpy", "pandas", "scipy", "matplotlib", "textual", "sqlalchemy")
 
 
 def module_name(root: Path, path: Path) -> str:
@@ -224,7 +224,7 @@ def test_headless_modules_do_not_load_textual() -> None:
 
 def test_help_loads_no_numerical_library() -> None:
     """``guideway --help`` (every sub-command registered) answers without NumPy, pandas, SciPy,
-    Matplotlib or Textual: their import alone takes most of a second."""
+    Matplotlib, Textual or SQLAlchemy: their import alone takes most of a second."""
     code = (
         "import contextlib, io, sys\n"
         "from tui.cli import main\n"

@@ -15,7 +15,7 @@ from saved_runs.evaluation.tolerance import positioning_tolerance
 from saved_runs.toml_file import TomlTable, naming_source, read_toml
 
 from .cycles import CYCLES, Stop, check_targets, cycle, linear_targets, rotary_targets
-from .shared_tables import DeviceSetup, check_devices, controller_timing_keys, scenario_path
+from .shared_tables import DeviceSetup, catalog_table, check_devices, controller_timing_keys, scenario_path
 
 TRIGGERS = ("in-position", "stability", "manual")
 DIALECTS = ("fanuc", "linuxcnc")
@@ -279,7 +279,7 @@ def _positioning_setup(data: dict[str, Any], source: str) -> PositioningSetup:
     tolerance = positioning_tolerance(top.table("tolerance").data, "arcsec" if axis_type == "rotary" else "um",
                                       source)
     scenario = scenario_path(sim.get("scenario", str, ""), source)
-    for t in (top, ax, tr, en, ctl, gc, sim):
+    for t in (top, ax, tr, en, ctl, gc, sim, catalog_table(top)):
         t.check_unknown()
     setup = PositioningSetup(
         axis_name=name, axis_type=axis_type, targets=targets, runs=runs, cycle=cyc, overrun=overrun,

@@ -78,6 +78,14 @@ def controller_timing_keys(ctl: TomlTable) -> dict[str, Any]:
             "trigger_retries": ctl.get("trigger_retries", int, d.trigger_retries)}
 
 
+def catalog_table(top: TomlTable) -> TomlTable:
+    """``[catalog] url``: the catalogue a completed run adds itself to (docs/fleet.md); read by
+    :func:`acquisition.cataloguing.setup_catalog_url`, checked here with the set-up."""
+    table = top.table("catalog")
+    table.get("url", str, "")
+    return table
+
+
 def scenario_path(value: str, source: str) -> str:
     """``[simulation] scenario``: a path relative to the set-up file's directory (as given otherwise)."""
     if not value or Path(value).is_absolute() or not Path(source).is_file():

@@ -18,7 +18,7 @@ from saved_runs.evaluation.limits import ValidationSetup
 from saved_runs.evaluation.tolerance import straightness_tolerance
 from saved_runs.toml_file import TomlTable, naming_source, read_toml
 
-from .shared_tables import DeviceSetup, check_devices, controller_timing_keys, scenario_path
+from .shared_tables import DeviceSetup, catalog_table, check_devices, controller_timing_keys, scenario_path
 
 UNCERTAINTY_KEYS = ("sensor_noise_um", "sensor_resolution_um", "straightness_um", "angle_urad",
                     "position_um", "offset_mm", "step_mm")
@@ -223,7 +223,7 @@ def _straightness_setup(data: dict[str, Any], source: str) -> StraightnessSetup:
     au = top.table("auto")
     a = HandsFreeSetup()
     auto = HandsFreeSetup(**{f.name: au.get(f.name, float, getattr(a, f.name)) for f in fields(a)})
-    for t in (top, blk, geo, sen, ctl, wu, va, sim, au):
+    for t in (top, blk, geo, sen, ctl, wu, va, sim, au, catalog_table(top)):
         t.check_unknown()
     return StraightnessSetup(
         block_length_mm=length, stations=stations, geometry=geometry, devices=devices,  # type: ignore[arg-type]

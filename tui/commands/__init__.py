@@ -26,6 +26,8 @@ COMMAND_MODULES = (
     "simulate",
     "diagnose",
     "compare",
+    "catalog",
+    "trend",
     "tui",
 )
 

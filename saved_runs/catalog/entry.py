@@ -1,0 +1,185 @@
+"""One run as the catalogue holds it: identity and place from run.json, a content hash of run.json and
+points.csv, and the headline values with their uncertainties from the same evaluation as
+``guideway process`` (its results/summary.json when that is newer than the run's files, else a fresh
+evaluation, written nowhere: the catalogue never changes a run directory).
+
+Headline values (``values``), each ``{"value_um": v, "u_um": u}`` with ``u`` the standard uncertainty
+(k = 1) or None when the evaluation gives none; a rotary axis' values are ``value_arcsec``/``u_arcsec``;
+``limit_um`` (``limit_arcsec``) when the run's ``[tolerance]`` sets a limit on that value:
+
+* straightness: ``endpoint``, ``least_squares``, ``minimum_zone`` (straightness against each reference
+  line; u = the Monte Carlo expanded uncertainty U divided by its k);
+* positioning: the ISO 230-2 values ``A``, ``A_up``, ``A_down``, ``E``, ``E_up``, ``E_down``, ``M``, ``R``,
+  ``R_up``, ``R_down``, ``B`` (their uncertainty is not evaluated: u None).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import UserError
+from ..evaluation.tolerance import POSITIONING_QUANTITIES, REFERENCE_LINES
+from ..store.format import FORMAT
+
+HASHED_FILES = ("run.json", "points.csv")
+
+
+class RunUnreadable(UserError):
+    """A run directory whose run.json cannot be read or is not a guideway run."""
+
+
+@dataclass(frozen=True)
+class Entry:
+    """A catalogue entry (one row of ``guideway_runs``); ``note`` says why ``values`` is empty."""
+
+    uid: str
+    path: str
+    machine: str
+    axis: str
+    kind: str
+    created: str
+    status: str
+    content_hash: str
+    values: dict[str, dict[str, float | None]] = field(default_factory=dict)
+    verdict: str | None = None
+    note: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The object of ``guideway catalog list --json``."""
+        return {"uid": self.uid, "path": self.path, "machine": self.machine, "axis": self.axis, "kind": self.kind,
+                "created": self.created, "status": self.status, "values": self.values, "verdict": self.verdict}
+
+
+@dataclass(frozen=True)
+class RunFiles:
+    """What the catalogue reads of a run directory before deciding whether to evaluate it."""
+
+    path: Path
+    meta: dict[str, Any]
+    content_hash: str
+
+    @property
+    def uid(self) -> str:
+        return str(self.meta["uid"])
+
+
+def read_run_files(run_dir: Path | str) -> RunFiles:
+    """run.json and the content hash (SHA-256 of run.json, a NUL byte, points.csv) of ``run_dir``."""
+    path = Path(run_dir).resolve()
+    digest = hashlib.sha256()
+    try:
+        raw = (path / "run.json").read_bytes()
+        meta = json.loads(raw)
+    except FileNotFoundError:
+        raise RunUnreadable(f"{path}: no run.json (not a run directory)") from None
+    except OSError as exc:
+        raise RunUnreadable(f"{path}: run.json cannot be read ({exc.strerror or exc.__class__.__name__})") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise RunUnreadable(f"{path}: run.json is not valid JSON ({exc.__class__.__name__})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise RunUnreadable(f"{path}: run.json is not a guideway run")
+    if not isinstance(meta.get("uid"), str) or not meta["uid"]:
+        raise RunUnreadable(f"{path}: run.json has no uid")
+    digest.update(raw)
+    digest.update(b"\0")
+    try:
+        digest.update((path / "points.csv").read_bytes())
+    except FileNotFoundError:
+        pass  # a run that failed before its first point: hashed as empty
+    except OSError as exc:
+        raise RunUnreadable(f"{path}: points.csv cannot be read ({exc.strerror or exc.__class__.__name__})") from None
+    return RunFiles(path, meta, digest.hexdigest())
+
+
+def _mtime_ns(path: Path) -> int:
+    try:
+        return path.stat().st_mtime_ns
+    except OSError:
+        return 0
+
+
+def fresh_summary(run_dir: Path) -> dict[str, Any] | None:
+    """results/summary.json when it was written after run.json and points.csv last changed (else None:
+    missing or stale)."""
+    summary = run_dir / "results" / "summary.json"
+    written = _mtime_ns(summary)
+    if not written or written < max(_mtime_ns(run_dir / name) for name in HASHED_FILES):
+        return None
+    try:
+        data = json.loads(summary.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def _number(v: Any) -> float | None:
+    return float(v) if isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) else None
+
+
+def headline_values(summary: dict[str, Any], meta: dict[str, Any]) -> dict[str, dict[str, float | None]]:
+    """The headline values of an evaluation (``process --json`` object ``summary``) with their standard
+    uncertainties, and the run's tolerance limits (run.json ``setup.tolerance``)."""
+    tolerance = (meta.get("setup") or {}).get("tolerance") or {}
+    out: dict[str, dict[str, float | None]] = {}
+    if summary.get("kind") == "straightness":
+        unc = summary.get("uncertainty_um") or {}
+        k = _number(unc.get("k")) or 2.0
+        expanded = unc.get("straightness") or {}
+        for line in REFERENCE_LINES:
+            value = _number((summary.get("straightness_um") or {}).get(line))
+            if value is None:
+                continue
+            big_u = _number(expanded.get(line))
+            entry: dict[str, float | None] = {"value_um": value, "u_um": None if big_u is None else big_u / k}
+            if tolerance.get("reference_line", "minimum_zone") == line and _number(tolerance.get("straightness_um")):
+                entry["limit_um"] = float(tolerance["straightness_um"])
+            out[line] = entry
+    elif summary.get("kind") == "positioning":
+        unit = "arcsec" if summary.get("unit") == "arcsec" else "um"
+        iso = summary.get("iso230_2") or {}
+        for q in POSITIONING_QUANTITIES:
+            value = _number(iso.get(q))
+            if value is None:
+                continue
+            entry = {f"value_{unit}": value, f"u_{unit}": None}
+            limit = _number(tolerance.get(f"{q}_{unit}"))
+            if limit is not None:
+                entry[f"limit_{unit}"] = limit
+            out[q] = entry
+    return out
+
+
+def evaluated_summary(run_dir: Path) -> tuple[dict[str, Any] | None, str]:
+    """The ``process --json`` object of ``run_dir``: from results/summary.json if fresh, else evaluated now
+    with process' defaults; (None, why) when the run cannot be evaluated."""
+    summary = fresh_summary(run_dir)
+    if summary is not None:
+        return summary, ""
+    from ..evaluation.evaluate import process_run_dir  # pandas and friends only when something is evaluated
+
+    try:
+        _, evaluation = process_run_dir(run_dir)
+        return evaluation.to_dict(), ""
+    except UserError as exc:
+        return None, f"not evaluated: {exc}"
+    except (ValueError, ArithmeticError) as exc:  # too few points for a line, and the like
+        return None, f"not evaluated: {exc.__class__.__name__}: {exc}"
+
+
+def make_entry(files: RunFiles) -> Entry:
+    """The catalogue entry of a run read by :func:`read_run_files` (evaluating it if its results are missing
+    or stale)."""
+    meta = files.meta
+    summary, note = evaluated_summary(files.path)
+    values = headline_values(summary, meta) if summary is not None else {}
+    verdict = (summary or {}).get("verdict")
+    axis = meta.get("axis") or (meta.get("setup") or {}).get("axis_name") or ""
+    return Entry(uid=files.uid, path=str(files.path), machine=str(meta.get("machine") or ""), axis=str(axis),
+                 kind=str(meta.get("kind") or ""), created=str(meta.get("created") or ""),
+                 status=str(meta.get("status") or ""), content_hash=files.content_hash, values=values,
+                 verdict=verdict.get("result") if isinstance(verdict, dict) else None, note=note)

@@ -1,0 +1,204 @@
+"""Adding, listing and removing the catalogue's runs (``guideway catalog``), on SQLite or PostgreSQL alike.
+
+Adding is idempotent and safe with several processes at once: a run is keyed by its uid and written with
+one ``INSERT ... ON CONFLICT (uid) DO UPDATE`` (both databases have it), so two rigs adding the same runs
+leave one entry each and lose none.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import sqlalchemy as sa
+
+from ..errors import UserError
+from .database import Catalog, runs_table
+from .entry import Entry, RunFiles, RunUnreadable, make_entry, read_run_files
+
+BATCH = 200  # rows written per transaction while scanning
+
+
+@dataclass(frozen=True)
+class AddOutcome:
+    """What adding one run directory did: ``added``, ``unchanged``, ``updated`` (edited since it was added),
+    ``moved`` (same run found in a new place), ``copy`` (a second directory of an entry whose own directory
+    still exists: left as it is) or ``unreadable``; ``message`` says it in one line."""
+
+    path: str
+    action: str
+    message: str
+    uid: str = ""
+
+
+def scan_run_dirs(folder: Path | str) -> list[Path]:
+    """Every directory under ``folder`` (at any depth, ``folder`` itself included) holding a run.json, and
+    every directory that could not be listed (so that adding it reports it as unreadable); the results/
+    folders of runs are not entered."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise UserError(f"--scan {folder}: not a folder; give the folder that holds the run directories")
+    found = []
+    for here, dirs, files in os.walk(folder, onerror=lambda exc: found.append(Path(exc.filename))):
+        if "run.json" in files:
+            found.append(Path(here))
+            dirs[:] = []  # a run directory holds no runs
+        else:
+            dirs.sort()
+    return sorted(found)
+
+
+def _now() -> str:
+    return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def _row(entry: Entry) -> dict[str, Any]:
+    return {"uid": entry.uid, "path": entry.path, "machine": entry.machine, "axis": entry.axis, "kind": entry.kind,
+            "created": entry.created, "status": entry.status, "values_json": json.dumps(entry.values, allow_nan=False),
+            "verdict": entry.verdict, "content_hash": entry.content_hash, "added": _now()}
+
+
+def _upsert(cat: Catalog, rows: list[dict[str, Any]]) -> None:
+    """Insert ``rows``, or replace the entries of their uids (one statement: no duplicate, no lost entry
+    when another process writes the same uids at the same time)."""
+    if not rows:
+        return
+    if cat.dialect == "postgresql":
+        from sqlalchemy.dialects.postgresql import insert
+    else:
+        from sqlalchemy.dialects.sqlite import insert
+    stmt = insert(runs_table)
+    keep = {c: stmt.excluded[c] for c in _row_columns() if c not in ("uid", "added")}
+    with cat.engine.begin() as conn:
+        conn.execute(stmt.on_conflict_do_update(index_elements=["uid"], set_=keep), rows)
+
+
+def _row_columns() -> list[str]:
+    return [c.name for c in runs_table.columns]
+
+
+def _set_path(cat: Catalog, moves: list[tuple[str, str]]) -> None:
+    if not moves:
+        return
+    with cat.engine.begin() as conn:
+        conn.execute(sa.update(runs_table).where(runs_table.c.uid == sa.bindparam("u")).values(path=sa.bindparam("p")),
+                     [{"u": uid, "p": path} for uid, path in moves])
+
+
+def _known(cat: Catalog, uids: Iterable[str]) -> dict[str, tuple[str, str]]:
+    """uid -> (content hash, path) of the entries among ``uids``."""
+    uids = list(uids)
+    out: dict[str, tuple[str, str]] = {}
+    with cat.engine.connect() as conn:
+        for i in range(0, len(uids), 500):
+            q = sa.select(runs_table.c.uid, runs_table.c.content_hash, runs_table.c.path).where(
+                runs_table.c.uid.in_(uids[i:i + 500]))
+            out.update({r.uid: (r.content_hash, r.path) for r in conn.execute(q)})
+    return out
+
+
+def _still_there(path: str, uid: str) -> bool:
+    """Whether ``path`` still holds the run ``uid`` (else the run has moved away from it)."""
+    try:
+        return json.loads((Path(path) / "run.json").read_bytes()).get("uid") == uid
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def add_runs(cat: Catalog, run_dirs: Iterable[Path | str]) -> Iterator[AddOutcome]:
+    """Add each run directory to the catalogue, yielding what happened to each (the unreadable ones first,
+    then the others in the order given): an unreadable directory is reported and the others are added."""
+    read: list[RunFiles] = []
+    for d in run_dirs:
+        try:
+            read.append(read_run_files(d))
+        except RunUnreadable as exc:
+            yield AddOutcome(str(d), "unreadable", f"unreadable: {exc}")
+    known = _known(cat, {f.uid for f in read})
+    pending: list[dict[str, Any]] = []
+    moves: list[tuple[str, str]] = []
+    seen: dict[str, str] = {}
+    for f in read:
+        path = str(f.path)
+        if f.uid in seen:
+            yield AddOutcome(path, "copy", f"copy: {path} holds run {f.uid}, as {seen[f.uid]} does; left out", f.uid)
+            continue
+        seen[f.uid] = path
+        old = known.get(f.uid)
+        if old is not None and old[0] == f.content_hash:
+            if old[1] == path:
+                yield AddOutcome(path, "unchanged", f"unchanged: {path}", f.uid)
+            elif _still_there(old[1], f.uid):
+                yield AddOutcome(path, "copy", f"copy: {path} holds run {f.uid}, catalogued at {old[1]} which still "
+                                 "holds it; left as it is", f.uid)
+            else:
+                moves.append((f.uid, path))
+                yield AddOutcome(path, "moved", f"moved: run {f.uid} found again at {path} (was {old[1]})", f.uid)
+            continue
+        entry = make_entry(f)
+        pending.append(_row(entry))
+        note = f" ({entry.note})" if entry.note else ""
+        if old is None:
+            yield AddOutcome(path, "added", f"added: {path}{note}", f.uid)
+        else:
+            yield AddOutcome(path, "updated", f"updated: {path} was edited since it was added (run.json or points.csv "
+                             f"changed); its entry now holds the run as it is{note}", f.uid)
+        if len(pending) >= BATCH:
+            _upsert(cat, pending)
+            pending = []
+    _upsert(cat, pending)
+    _set_path(cat, moves)
+
+
+def _entry(row: Any) -> Entry:
+    return Entry(uid=row.uid, path=row.path, machine=row.machine, axis=row.axis, kind=row.kind, created=row.created,
+                 status=row.status, content_hash=row.content_hash, values=json.loads(row.values_json),
+                 verdict=row.verdict)
+
+
+def since_text(date: str) -> str:
+    """``--since DATE`` (``YYYY-MM-DD`` or an ISO 8601 time, UTC) as the catalogue's ``created`` text."""
+    try:
+        when = datetime.fromisoformat(date.replace("Z", "+00:00"))
+    except ValueError:
+        raise UserError(f"--since {date!r} is not a date; give YYYY-MM-DD or YYYY-MM-DDTHH:MM:SSZ (UTC)") from None
+    if when.tzinfo is not None:
+        when = when.astimezone(UTC)
+    return when.strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def list_entries(cat: Catalog, *, machine: str | None = None, axis: str | None = None, kind: str | None = None,
+                 since: str | None = None, oldest_first: bool = False) -> list[Entry]:
+    """The catalogue's entries that match every filter given (``since``: ``created`` at or after it),
+    newest first (or oldest first)."""
+    t = runs_table
+    q = sa.select(t)
+    for column, value in ((t.c.machine, machine), (t.c.axis, axis), (t.c.kind, kind)):
+        if value is not None:
+            q = q.where(column == value)
+    if since is not None:
+        q = q.where(t.c.created >= since_text(since))
+    q = q.order_by(t.c.created.asc() if oldest_first else t.c.created.desc(), t.c.uid)
+    with cat.engine.connect() as conn:
+        return [_entry(r) for r in conn.execute(q)]
+
+
+def remove_run(cat: Catalog, run: str) -> Entry:
+    """Remove the entry of ``run`` (a run directory, its uid, or the path the catalogue holds for it)."""
+    t = runs_table
+    uid = run
+    if (Path(run) / "run.json").is_file():
+        uid = read_run_files(run).uid
+    with cat.engine.begin() as conn:
+        row = conn.execute(sa.select(t).where(t.c.uid == uid)).first()
+        if row is None:
+            row = conn.execute(sa.select(t).where(t.c.path == str(Path(run).resolve()))).first()
+        if row is None:
+            raise UserError(f"{run}: no such run in the catalogue {cat.url}; see guideway catalog list")
+        conn.execute(sa.delete(t).where(t.c.uid == row.uid))
+    return _entry(row)

@@ -1,0 +1,87 @@
+"""``guideway trend``: one headline value over every catalogued run of a machine axis, fitted (fit.py),
+as the JSON object and the one-line-per-run text of the command."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, TextIO
+
+from ..catalog.database import Catalog
+from ..catalog.runs import list_entries
+from ..errors import UserError
+from .fit import STEP_K, Trend, TrendPoint, fit_trend
+
+
+@dataclass(frozen=True)
+class AxisTrend:
+    """The trend of ``value`` on ``machine`` / ``axis`` and where its limit came from."""
+
+    machine: str
+    axis: str
+    value: str
+    unit: str
+    trend: Trend
+    limit_source: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``guideway trend --json`` object (issue 20's keys, then the fit's details)."""
+        t = self.trend
+        return {"machine": self.machine, "axis": self.axis, "value": self.value,
+                "points": [p.to_dict() for p in t.points],
+                "slope_um_per_year": t.slope_um_per_year, "u_slope_um_per_year": t.u_slope_um_per_year,
+                "limit_um": t.limit_um, "crossing_date": t.crossing_date, "steps": [s.to_dict() for s in t.steps],
+                "u_crossing_days": t.u_crossing_days, "crossing_note": t.crossing_note,
+                "intercept_um": t.intercept_um, "t0": t.t0, "weights": t.weights, "chi2_per_dof": t.chi2_per_dof,
+                "limit_source": self.limit_source, "unit": self.unit, "days_per_year": 365.25}
+
+    def print_text(self, stream: TextIO) -> None:
+        t, u = self.trend, self.unit
+        print(f"{self.value} on {self.machine or '(no machine)'} axis {self.axis or '(none)'}: {len(t.points)} run(s), "
+              f"values in {u}", file=stream)
+        stepped = {s.to_run for s in t.steps}
+        for p in t.points:
+            unc = "" if p.u_um is None else f" ± {p.u_um:.3f}"
+            mark = "  <- step" if p.run in stepped else ""
+            print(f"  {p.date}  {p.value_um:10.3f}{unc}  {p.run}{mark}", file=stream)
+        if t.slope_um_per_year is None:
+            print(f"trend: none ({t.crossing_note})", file=stream)
+            return
+        us = "?" if t.u_slope_um_per_year is None else f"{t.u_slope_um_per_year:.3f}"
+        print(f"trend: {t.slope_um_per_year:+.3f} ± {us} {u}/year (u, k = 1; weights {t.weights})", file=stream)
+        if t.limit_um is not None:
+            when = t.crossing_date or "never"
+            ud = f" ± {t.u_crossing_days:.0f} days" if t.u_crossing_days is not None else ""
+            note = f" ({t.crossing_note})" if t.crossing_note else ""
+            print(f"limit {t.limit_um:g} {u} ({self.limit_source}): reached {when}{ud}{note}", file=stream)
+        for s in t.steps:
+            print(f"step: {s.change_um:+.3f} {u} from {s.from_run} to {s.to_run} ({s.date}), more than "
+                  f"{STEP_K:g} x {s.u_um:.3f} {u}", file=stream)
+
+
+def axis_trend(cat: Catalog, machine: str, axis: str, value: str, limit_um: float | None = None) -> AxisTrend:
+    """The trend of ``value`` over the catalogued runs of ``machine`` / ``axis`` (runs without the value
+    are left out); the limit is ``limit_um``, else the newest run's ``[tolerance]`` on that value."""
+    if limit_um is not None and not (math.isfinite(limit_um) and limit_um > 0):
+        raise UserError(f"--limit must be a positive number, got {limit_um}")
+    entries = list_entries(cat, machine=machine, axis=axis, oldest_first=True)
+    if not entries:
+        raise UserError(f"no catalogued run of machine {machine!r} axis {axis!r} in {cat.url}; see guideway catalog "
+                        "list (add runs with guideway catalog add)")
+    points: list[TrendPoint] = []
+    unit, limit, source = "um", None, ""
+    for e in entries:
+        v = e.values.get(value)
+        if not v:
+            continue
+        unit = "arcsec" if "value_arcsec" in v else "um"
+        points.append(TrendPoint(e.uid, e.created, float(v[f"value_{unit}"]), v.get(f"u_{unit}"), e.path))
+        if v.get(f"limit_{unit}") is not None:
+            limit, source = float(v[f"limit_{unit}"]), f"[tolerance] of run {e.uid}"
+    if not points:
+        names = sorted({n for e in entries for n in e.values})
+        raise UserError(f"no run of machine {machine!r} axis {axis!r} has a value {value!r}; "
+                        f"its runs have: {', '.join(names) or 'no evaluated value'}")
+    if limit_um is not None:
+        limit, source = limit_um, "--limit"
+    return AxisTrend(machine, axis, value, unit, fit_trend(points, limit), source)

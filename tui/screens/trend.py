@@ -1,0 +1,134 @@
+"""Trend screen: one headline value over every catalogued run of a machine axis (``guideway trend`` in
+the TUI): the values with their uncertainty and the fitted line as a plot, the runs as a table, the
+slope per year and the date the limit is reached.
+
+Taking its inputs as constructor arguments, it is pushed from the runs browser (the selected run's
+machine and axis) or from anywhere else: ``app.push_screen(TrendScreen(url, machine, axis, value))``.
+``v`` steps through the values the axis' runs have; Escape goes back.
+"""
+
+from __future__ import annotations
+
+from rich.text import Text
+from textual.app import ComposeResult
+from textual.binding import Binding
+from textual.markup import escape
+from textual.screen import Screen
+from textual.widgets import DataTable, Footer, Header, Static
+
+from saved_runs.catalog.browse import CatalogFilter, browse_catalog, trend_values
+from saved_runs.catalog.database import open_catalog
+from saved_runs.errors import UserError
+from saved_runs.trend.fit import parse_date, years_between
+from saved_runs.trend.of_catalog import AxisTrend, axis_trend
+
+from ..widgets.plot import Plot, PlotData, Series
+
+
+def trend_plot(at: AxisTrend) -> PlotData:
+    """Values (cyan), their ± u bars (blue), the fitted line (yellow) and the limit (red) against years
+    since the first run."""
+    t = at.trend
+    if not t.points:
+        return PlotData()
+    t0 = parse_date(t.points[0].date)
+    xs = [years_between(t0, parse_date(p.date)) for p in t.points]
+    series = []
+    for x, p in zip(xs, t.points, strict=True):
+        if p.u_um is not None:
+            series.append(Series([(x, p.value_um - p.u_um), (x, p.value_um + p.u_um)], "blue", join=True))
+    x_end = max(xs)
+    if t.slope_um_per_year is not None and t.intercept_um is not None:
+        series.append(Series([(0.0, t.intercept_um), (x_end, t.intercept_um + t.slope_um_per_year * x_end)],
+                             "yellow", "trend", join=True))
+    if t.limit_um is not None:
+        series.append(Series([(0.0, t.limit_um), (x_end, t.limit_um)], "red", "limit", join=True))
+    series.append(Series(list(zip(xs, [p.value_um for p in t.points], strict=True)), "bold cyan", at.value))
+    return PlotData(series, x_label="years since the first run · values cyan ± u blue · trend yellow · limit red",
+                    y_label=at.unit)
+
+
+def trend_text(at: AxisTrend) -> str:
+    """The fit in one or two lines (plain text)."""
+    t, u = at.trend, at.unit
+    if t.slope_um_per_year is None:
+        return f"{len(t.points)} run(s): no trend ({t.crossing_note})"
+    us = "?" if t.u_slope_um_per_year is None else f"{t.u_slope_um_per_year:.3f}"
+    text = f"{len(t.points)} runs · trend {t.slope_um_per_year:+.3f} ± {us} {u}/year (k = 1)"
+    if t.limit_um is not None:
+        when = (t.crossing_date or "never")[:10]
+        ud = f" ± {t.u_crossing_days:.0f} d" if t.u_crossing_days is not None else ""
+        text += f" · limit {t.limit_um:g} {u} reached {when}{ud}"
+    if t.steps:
+        text += f" · {len(t.steps)} step(s)"
+    return text
+
+
+class TrendScreen(Screen):
+    SCREEN_NAME = "Trend"
+    SUB_TITLE = SCREEN_NAME
+    BINDINGS = [Binding("escape", "back", "back"), Binding("v", "next_value", "next value")]
+    DEFAULT_CSS = """
+    TrendScreen #trend-plot { height: 10; }
+    TrendScreen #trend-table { height: 1fr; }
+    """
+
+    def __init__(self, catalog_url: str | None, machine: str, axis: str, value: str,
+                 limit_um: float | None = None) -> None:
+        super().__init__()
+        self.catalog_url = catalog_url
+        self.machine, self.axis, self.value = machine, axis, value
+        self.limit_um = limit_um
+        self.trend: AxisTrend | None = None
+        self.values: list[str] = [value]
+
+    def compose(self) -> ComposeResult:
+        yield Header()
+        yield Static(id="trend-title")
+        yield Plot(id="trend-plot")
+        yield Static(id="trend-fit")
+        yield DataTable(id="trend-table", cursor_type="row", zebra_stripes=True)
+        yield Footer()
+
+    def on_mount(self) -> None:
+        try:
+            view = browse_catalog(self.catalog_url, CatalogFilter(self.machine, self.axis))
+            self.values = trend_values(view.entries, self.machine, self.axis) or [self.value]
+        except UserError:
+            pass  # load() says it
+        self.load()
+
+    def load(self) -> None:
+        title = self.query_one("#trend-title", Static)
+        table = self.query_one(DataTable)
+        table.clear(columns=True)
+        try:
+            with open_catalog(self.catalog_url, create=False) as cat:
+                self.trend = axis_trend(cat, self.machine, self.axis, self.value, self.limit_um)
+        except UserError as exc:
+            self.trend = None
+            title.update(escape(str(exc)))
+            self.query_one("#trend-plot", Plot).show(PlotData())
+            self.query_one("#trend-fit", Static).update("")
+            return
+        at = self.trend
+        title.update(escape(f"{at.value} · machine {at.machine or '-'} · axis {at.axis or '-'} "
+                            f"(v: next value of {len(self.values)})"))
+        self.query_one("#trend-plot", Plot).show(trend_plot(at))
+        self.query_one("#trend-fit", Static).update(Text(trend_text(at)))
+        stepped = {s.to_run: s for s in at.trend.steps}
+        for label in ("created (UTC)", f"{at.value} {at.unit}", f"u {at.unit}", "step", "run"):
+            table.add_column(label)
+        for p in at.trend.points:
+            step = stepped.get(p.run)
+            table.add_row(Text(p.date.replace("T", " ").removesuffix("Z")), Text(f"{p.value_um:.3f}", justify="right"),
+                          Text("-" if p.u_um is None else f"{p.u_um:.3f}", justify="right"),
+                          Text("" if step is None else f"{step.change_um:+.3f}", justify="right"), Text(p.run))
+
+    def action_next_value(self) -> None:
+        i = self.values.index(self.value) if self.value in self.values else -1
+        self.value = self.values[(i + 1) % len(self.values)]
+        self.load()
+
+    def action_back(self) -> None:
+        self.app.pop_screen()
