@@ -21,14 +21,14 @@ def setup_catalog_url(source: dict[str, Any] | None) -> str | None:
 def add_completed_run(run_dir: Path | str, setup_url: str | None, stream: TextIO) -> str | None:
     """Add ``run_dir`` to the configured catalogue; return the one line printed on ``stream`` (None: no
     catalogue configured)."""
-    from saved_runs.catalog.database import configured_url
+    from fleet.catalog.database import configured_url
 
     url = configured_url(setup_url)
     if url is None:
         return None
     try:
-        from saved_runs.catalog.database import open_catalog
-        from saved_runs.catalog.runs import add_runs
+        from fleet.catalog.database import open_catalog
+        from fleet.catalog.runs import add_runs
 
         with open_catalog(url) as cat:
             outcomes = list(add_runs(cat, [run_dir]))

@@ -1,5 +1,5 @@
 """The catalogue at fleet size, on SQLite and on a PostgreSQL server of this machine (started here as
-the tests start theirs, tests/catalog/postgres_server.py):
+the tests start theirs, tests/fleet/postgres_server.py):
 
 * ``list`` with a filter (one machine's axis) on a catalogue of 10,000 runs: target < 200 ms;
 * ``trend`` over the 1,000 runs of one axis (in the same 10,000): target < 1 s;
@@ -29,10 +29,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from saved_runs.catalog.database import open_catalog  # noqa: E402
-from saved_runs.catalog.entry import Entry  # noqa: E402
-from saved_runs.catalog.runs import _row, _upsert, add_runs, list_entries, scan_run_dirs  # noqa: E402
-from saved_runs.trend.of_catalog import axis_trend  # noqa: E402
+from fleet.catalog.database import open_catalog  # noqa: E402
+from fleet.catalog.entry import Entry  # noqa: E402
+from fleet.catalog.runs import _row, _upsert, add_runs, list_entries, scan_run_dirs  # noqa: E402
+from fleet.trend.of_catalog import axis_trend  # noqa: E402
 
 CATALOG_RUNS = 10_000
 TREND_RUNS = 1_000
@@ -152,7 +152,7 @@ def main() -> int:
         evaluation.write(run.path / "results")
         bench("SQLite (a file)", f"sqlite:///{work / 'catalog.sqlite'}", template, work, args.runs)
         if not args.sqlite_only:
-            from tests.catalog.postgres_server import postgres_server
+            from tests.fleet.postgres_server import postgres_server
 
             with postgres_server() as url:
                 bench("PostgreSQL (server on 127.0.0.1)", url, template, work, args.runs)

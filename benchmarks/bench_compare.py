@@ -21,8 +21,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from acquisition.simulated.synthetic import simulate_run  # noqa: E402
-from saved_runs.compare.compare import compare_runs  # noqa: E402
-from saved_runs.compare.report import write_comparison_report  # noqa: E402
+from fleet.compare.compare import compare_runs  # noqa: E402
+from fleet.compare.report import write_comparison_report  # noqa: E402
 
 
 def median_time(label: str, fn: Callable[[], object], runs: int) -> float:

@@ -1,11 +1,13 @@
 """The layout contract (docs/architecture.md), checked by walking every import statement: module
 level, inside a function (lazy) and under ``if TYPE_CHECKING:``.
 
-* Layers: ``tui -> acquisition -> saved_runs -> (processing | drivers)``; a layer may skip the
-  ones below it, never reach up.  ``tui`` imports neither drivers, processing nor mocks;
+* Layers: ``tui -> acquisition -> fleet -> saved_runs -> (processing | drivers)``; a layer may skip
+  the ones below it, never reach up (``fleet`` and ``saved_runs`` together are the saved-runs layer:
+  ``fleet`` works on many run directories through ``saved_runs``, which works on one).  ``tui``
+  imports neither drivers, processing nor mocks;
   ``mocks`` uses processing only; only ``acquisition/simulated/`` imports mocks; only ``tui``
   imports textual.
-* Inside ``saved_runs`` the sub-packages form a stack (:data:`SAVED_RUNS_ORDER`): each imports
+* Inside ``saved_runs`` and ``fleet`` the sub-packages form a stack (:data:`STACKS`): each imports
   only those below it.
 * No import cycle between modules.
 * No top-level package holds more than 25 % of the code lines.
@@ -21,10 +23,11 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("acquisition", "saved_runs", "drivers", "processing", "tui", "mocks")
+PACKAGES = ("acquisition", "fleet", "saved_runs", "drivers", "processing", "tui", "mocks")
 MAY_IMPORT = {
-    "tui": {"acquisition", "saved_runs"},
-    "acquisition": {"saved_runs", "processing", "drivers"},
+    "tui": {"acquisition", "fleet", "saved_runs"},
+    "acquisition": {"fleet", "saved_runs", "processing", "drivers"},
+    "fleet": {"saved_runs", "processing"},
     "saved_runs": {"processing", "drivers"},
     "processing": set(),
     "drivers": set(),
@@ -32,8 +35,10 @@ MAY_IMPORT = {
 }
 MOCKS_IMPORTED_BY = Path("acquisition/simulated")  # the simulated rig: the only importer of mocks
 # saved_runs' sub-packages (and top modules), lowest first: each may import only what stands before it
-SAVED_RUNS_ORDER = ("errors", "toml_file", "store", "importing", "results", "evaluation", "catalog", "export",
-                    "report", "compare", "trend", "diagnosis", "volumetric")
+SAVED_RUNS_ORDER = ("errors", "toml_file", "store", "catalog", "importing", "results", "evaluation", "export",
+                    "report", "diagnosis", "volumetric")
+FLEET_ORDER = ("catalog", "compare", "trend")
+STACKS = {"saved_runs": SAVED_RUNS_ORDER, "fleet": FLEET_ORDER}
 MAX_SHARE = 0.25
 HEAVY = ("numpy", "pandas", "scipy", "matplotlib", "textual", "sqlalchemy")
 
@@ -82,18 +87,19 @@ def violations(root: Path) -> list[str]:
                 bad.append(f"{where} imports mocks outside {MOCKS_IMPORTED_BY.as_posix()}/")
             elif top in PACKAGES and top != pkg and top not in MAY_IMPORT[pkg] and top != "mocks":
                 bad.append(f"{where} ({pkg}) imports {mod}")
-            if pkg == "saved_runs" == top and len(rel.parts) > 1 and "." in mod:
-                mine, theirs = _stack_place(rel.parts[1]), _stack_place(mod.split(".")[1])
+            if pkg in STACKS and pkg == top and len(rel.parts) > 1 and "." in mod:
+                order = STACKS[pkg]
+                mine, theirs = _stack_place(order, rel.parts[1]), _stack_place(order, mod.split(".")[1])
                 if mine is not None and theirs is not None and theirs > mine:
-                    bad.append(f"{where} (saved_runs.{SAVED_RUNS_ORDER[mine]}) imports upward: {mod}")
+                    bad.append(f"{where} ({pkg}.{order[mine]}) imports upward: {mod}")
             if pkg == "tui" and mod.startswith("tui.commands") and rel.parts[1] not in ("cli.py", "commands"):
                 bad.append(f"{where} imports the command line ({mod}); call the service it calls")
     return bad
 
 
-def _stack_place(part: str) -> int | None:
+def _stack_place(order: tuple[str, ...], part: str) -> int | None:
     name = part.removesuffix(".py")
-    return SAVED_RUNS_ORDER.index(name) if name in SAVED_RUNS_ORDER else None
+    return order.index(name) if name in order else None
 
 
 def module_graph(root: Path) -> dict[str, set[str]]:
@@ -176,7 +182,8 @@ def test_checker_catches_each_broken_rule(tmp_path: Path) -> None:
     for pkg in PACKAGES:
         (tmp_path / pkg).mkdir()
         (tmp_path / pkg / "__init__.py").write_text("")
-    for sub in ("acquisition/simulated", "saved_runs/store", "saved_runs/report", "tui/screens", "tui/commands"):
+    for sub in ("acquisition/simulated", "saved_runs/store", "saved_runs/report", "tui/screens", "tui/commands",
+                "fleet/catalog"):
         (tmp_path / sub).mkdir()
         (tmp_path / sub / "__init__.py").write_text("")
     (tmp_path / "drivers" / "bad.py").write_text("from acquisition import engine\n")
@@ -187,12 +194,16 @@ def test_checker_catches_each_broken_rule(tmp_path: Path) -> None:
     (tmp_path / "saved_runs" / "back.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
                                                      "    from acquisition.setup import x\n")
     (tmp_path / "tui" / "view.py").write_text("from drivers.errors import DriverError\n")
+    (tmp_path / "fleet" / "catalog" / "up.py").write_text("from ..trend import fit\n")
+    (tmp_path / "saved_runs" / "store" / "fleet_up.py").write_text("from fleet.catalog import runs\n")
     (tmp_path / "tui" / "screens" / "results.py").write_text("from ..commands.process import METHODS\n")
     assert violations(tmp_path) == [
         "acquisition/other.py:1 imports mocks outside acquisition/simulated/",
         "drivers/bad.py:1 (drivers) imports acquisition.engine",
+        "fleet/catalog/up.py:1 (fleet.catalog) imports upward: fleet.trend.fit",
         "processing/ui.py:2 imports textual outside tui",
         "saved_runs/back.py:3 (saved_runs) imports acquisition.setup.x",
+        "saved_runs/store/fleet_up.py:1 (saved_runs) imports fleet.catalog.runs",
         "saved_runs/store/up.py:1 (saved_runs.store) imports upward: saved_runs.report.build",
         "tui/screens/results.py:1 imports the command line (tui.commands.process.METHODS); call the service "
         "it calls",

@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from tests.saved_runs.test_compare import SCALE_EFFECT, positioning_scenario, simulate, straightness_scenario
+from tests.fleet.test_compare import SCALE_EFFECT, positioning_scenario, simulate, straightness_scenario
 from tests.tui.sessions import screen_name, widget_text
 from tests.waiting import wait_for_app
 from tui.app import GuidewayApp

@@ -18,13 +18,13 @@ from typing import Any
 
 
 def _open(args: argparse.Namespace) -> Any:
-    from saved_runs.catalog.database import open_catalog
+    from fleet.catalog.database import open_catalog
 
     return open_catalog(args.catalog)
 
 
 def run_add(args: argparse.Namespace) -> int:
-    from saved_runs.catalog.runs import add_runs, scan_run_dirs
+    from fleet.catalog.runs import add_runs, scan_run_dirs
     from saved_runs.errors import UserError
 
     if bool(args.runs) == (args.scan is not None):
@@ -54,7 +54,7 @@ def headline(values: dict[str, Any]) -> str:
 
 
 def run_list(args: argparse.Namespace) -> int:
-    from saved_runs.catalog.runs import list_entries
+    from fleet.catalog.runs import list_entries
 
     with _open(args) as cat:
         entries = list_entries(cat, machine=args.machine, axis=args.axis, kind=args.kind, since=args.since)
@@ -70,7 +70,7 @@ def run_list(args: argparse.Namespace) -> int:
 
 
 def run_remove(args: argparse.Namespace) -> int:
-    from saved_runs.catalog.runs import remove_run
+    from fleet.catalog.runs import remove_run
 
     with _open(args) as cat:
         gone = remove_run(cat, args.run)

@@ -12,7 +12,7 @@ from .process import add_evaluator_options, evaluator_options, warn_about_run
 
 
 def run(args: argparse.Namespace) -> int:
-    from saved_runs.compare.compare import compare_runs
+    from fleet.compare.compare import compare_runs
 
     options = evaluator_options(args)
     comparison = compare_runs(args.run_a, args.run_b, any_axis=args.any_axis, **options)
@@ -20,7 +20,7 @@ def run(args: argparse.Namespace) -> int:
         warn_about_run(loaded, f"comparing run {label}'s")
     written = None
     if args.report is not None:
-        from saved_runs.compare.report import compare_command, write_comparison_report
+        from fleet.compare.report import compare_command, write_comparison_report
 
         command = compare_command(args.run_a, args.run_b, args.report, {**options, "any_axis": args.any_axis})
         written = write_comparison_report(comparison, args.report, command=command)
@@ -30,7 +30,7 @@ def run(args: argparse.Namespace) -> int:
         if written is not None:
             print(f"report written to {written}", file=sys.stderr)
     else:
-        from saved_runs.compare.text import print_comparison
+        from fleet.compare.text import print_comparison
 
         print_comparison(comparison, sys.stdout)
         if written is not None:

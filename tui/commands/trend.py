@@ -13,13 +13,13 @@ from .catalog import add_catalog_option
 
 
 def run(args: argparse.Namespace) -> int:
-    from saved_runs.catalog.database import open_catalog
-    from saved_runs.trend.of_catalog import axis_trend
+    from fleet.catalog.database import open_catalog
+    from fleet.trend.of_catalog import axis_trend
 
     with open_catalog(args.catalog) as cat:
         at = axis_trend(cat, args.machine, args.axis, args.value, args.limit)
     if args.report is not None:
-        from saved_runs.trend.report import write_trend_report
+        from fleet.trend.report import write_trend_report
 
         write_trend_report(at, args.report)
     if args.json:

@@ -15,9 +15,9 @@ from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import Footer, Header, Static
 
-from saved_runs.compare.compare import Comparison, compare_runs
-from saved_runs.compare.positioning import PositioningComparison
-from saved_runs.compare.text import change_table, run_line, value_lines
+from fleet.compare.compare import Comparison, compare_runs
+from fleet.compare.positioning import PositioningComparison
+from fleet.compare.text import change_table, run_line, value_lines
 from saved_runs.errors import EXPECTED_ERRORS
 
 from ..widgets.plot import Plot, PlotData, Series

@@ -16,11 +16,11 @@ from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Static
 
-from saved_runs.catalog.browse import CatalogFilter, browse_catalog, trend_values
-from saved_runs.catalog.database import open_catalog
+from fleet.catalog.browse import CatalogFilter, browse_catalog, trend_values
+from fleet.catalog.database import open_catalog
+from fleet.trend.fit import parse_date, years_between
+from fleet.trend.of_catalog import AxisTrend, axis_trend
 from saved_runs.errors import UserError
-from saved_runs.trend.fit import parse_date, years_between
-from saved_runs.trend.of_catalog import AxisTrend, axis_trend
 
 from ..widgets.plot import Plot, PlotData, Series
 

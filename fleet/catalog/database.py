@@ -15,7 +15,7 @@ from typing import Any
 
 import sqlalchemy as sa
 
-from ..errors import UserError
+from saved_runs.errors import UserError
 
 ENV_VAR = "GUIDEWAY_CATALOG"
 SCHEMA_VERSION = 1  # raise it with every change of the tables below (and say in docs/fleet.md what changed)

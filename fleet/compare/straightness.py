@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 
 from processing.uncertainty import K
+from saved_runs.errors import UserError
+from saved_runs.evaluation.straightness import StraightnessEvaluation
 
-from ..errors import UserError
-from ..evaluation.straightness import StraightnessEvaluation
 from .changes import change, change_pct, combined_expanded, none_if_nan, significant
 
 # A common station may sit this far apart in the two runs (mm) before the runs are refused: the decoupled

@@ -9,11 +9,12 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..errors import UserError
-from ..report.build import tool_version
-from ..report.common import UNIT_LABELS, conventions_section
-from ..report.html import HtmlPage, figure_png
-from ..store.files import write_text_atomic
+from saved_runs.errors import UserError
+from saved_runs.report.build import tool_version
+from saved_runs.report.common import UNIT_LABELS, conventions_section
+from saved_runs.report.html import HtmlPage, figure_png
+from saved_runs.store.files import write_text_atomic
+
 from .positioning import PositioningComparison
 
 if TYPE_CHECKING:

@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 
 from processing.iso230_2 import AXIS_QUANTITIES
+from saved_runs.errors import UserError
+from saved_runs.evaluation.positioning import PositioningEvaluation
 
-from ..errors import UserError
-from ..evaluation.positioning import PositioningEvaluation
 from .changes import change, change_pct, combined_expanded, finite, none_if_nan, significant
 
 # Targets closer than this are the same target (mm, deg): well below any target spacing, well above

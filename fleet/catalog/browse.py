@@ -7,9 +7,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from saved_runs.catalog.folder import RunSummary
+
 from .database import configured_url, open_catalog
 from .entry import Entry
-from .folder import RunSummary
 from .runs import list_entries
 
 DEFAULT_TREND_VALUE = {"straightness": "minimum_zone", "positioning": "E"}

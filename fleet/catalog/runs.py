@@ -17,7 +17,8 @@ from typing import Any
 
 import sqlalchemy as sa
 
-from ..errors import UserError
+from saved_runs.errors import UserError
+
 from .database import Catalog, runs_table
 from .entry import Entry, RunFiles, RunUnreadable, make_entry, read_run_files
 

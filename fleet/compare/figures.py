@@ -9,7 +9,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from ..results.figures import legend_above_data  # noqa: E402
+from saved_runs.results.figures import legend_above_data  # noqa: E402
+
 from .positioning import PositioningComparison  # noqa: E402
 from .straightness import StraightnessComparison  # noqa: E402
 

@@ -22,9 +22,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import UserError
-from ..evaluation.tolerance import POSITIONING_QUANTITIES, REFERENCE_LINES
-from ..store.format import FORMAT
+from saved_runs.errors import UserError
+from saved_runs.evaluation.tolerance import POSITIONING_QUANTITIES, REFERENCE_LINES
+from saved_runs.store.format import FORMAT
 
 HASHED_FILES = ("run.json", "points.csv")
 
@@ -160,7 +160,7 @@ def evaluated_summary(run_dir: Path) -> tuple[dict[str, Any] | None, str]:
     summary = fresh_summary(run_dir)
     if summary is not None:
         return summary, ""
-    from ..evaluation.evaluate import process_run_dir  # pandas and friends only when something is evaluated
+    from saved_runs.evaluation.evaluate import process_run_dir  # pandas and friends only when something is evaluated
 
     try:
         _, evaluation = process_run_dir(run_dir)

@@ -7,8 +7,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..evaluation.evaluate import evaluate_run
-from ..store.reader import LoadedRun, load_run
+from saved_runs.evaluation.evaluate import evaluate_run
+from saved_runs.store.reader import LoadedRun, load_run
+
 from .positioning import PositioningComparison, compare_positioning
 from .runs import RunIdentity, check_comparable
 from .straightness import StraightnessComparison, compare_straightness

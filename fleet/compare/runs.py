@@ -11,9 +11,9 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import UserError
-from ..report.common import simulated
-from ..store.reader import LoadedRun
+from saved_runs.errors import UserError
+from saved_runs.report.common import simulated
+from saved_runs.store.reader import LoadedRun
 
 LABELS = ("A", "B")
 

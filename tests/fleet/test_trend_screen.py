@@ -8,7 +8,7 @@ from pathlib import Path
 from textual.app import App
 from textual.widgets import DataTable, Static
 
-from saved_runs.catalog.browse import CatalogFilter, browse_catalog, trend_values
+from fleet.catalog.browse import CatalogFilter, browse_catalog, trend_values
 from tests.cli import guideway
 from tui.screens.trend import TrendScreen
 from tui.widgets.plot import Plot

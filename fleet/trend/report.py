@@ -5,8 +5,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..report.html import HtmlPage, figure_png
-from ..store.files import write_text_atomic
+from saved_runs.report.html import HtmlPage, figure_png
+from saved_runs.store.files import write_text_atomic
+
 from .fit import DAYS_PER_YEAR, STEP_K, parse_date
 from .of_catalog import AxisTrend
 

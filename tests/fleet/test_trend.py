@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from saved_runs.trend.fit import TrendPoint, fit_trend
+from fleet.trend.fit import TrendPoint, fit_trend
 from tests.cli import guideway, one_line_error
 
 from .runs import positioning_summary, straightness_summary, write_run

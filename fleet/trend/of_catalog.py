@@ -7,9 +7,10 @@ import math
 from dataclasses import dataclass
 from typing import Any, TextIO
 
-from ..catalog.database import Catalog
-from ..catalog.runs import list_entries
-from ..errors import UserError
+from fleet.catalog.database import Catalog
+from fleet.catalog.runs import list_entries
+from saved_runs.errors import UserError
+
 from .fit import STEP_K, Trend, TrendPoint, fit_trend
 
 
