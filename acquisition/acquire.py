@@ -24,6 +24,7 @@ from typing import Any, TextIO
 
 from drivers.modbus_link import parse_modbus_url
 from saved_runs.errors import SetupError, UserError
+from saved_runs.store.lock import run_writer_lock
 from saved_runs.store.writer import RunStore
 
 from . import inposition  # noqa: F401 - registers the in-position message handlers
@@ -182,15 +183,18 @@ def _open_store(setup: StraightnessSetup | None, out: Path, resume: bool
     return store, stored, rp
 
 
-def _no_empty_run_dir(run: Callable[..., Any]) -> Callable[..., Any]:
-    """A run that fails before its first record (devices unreachable, bad set-up) leaves no
-    empty run directory behind; one that started keeps everything it wrote."""
+def _one_writer(run: Callable[..., Any]) -> Callable[..., Any]:
+    """The run directory's writer lock (saved_runs/store/lock.py) held for the whole run, new or
+    resumed: a second writer is refused at once, naming this process.  A run that fails before its
+    first record (devices unreachable, bad set-up) leaves no empty run directory behind; one that
+    started keeps everything it wrote."""
 
     @functools.wraps(run)
-    def wrapper(setup: Any, out: Path | str, *args: Any, **kwargs: Any) -> Any:
+    def wrapper(setup: Any, out: Path | str, *args: Any, resume: bool = False, **kwargs: Any) -> Any:
         existed = Path(out).exists()
         try:
-            return run(setup, out, *args, **kwargs)
+            with run_writer_lock(out, new=not resume):
+                return run(setup, out, *args, resume=resume, **kwargs)
         except BaseException:
             if not existed:
                 with contextlib.suppress(OSError):  # rmdir refuses a directory that holds anything
@@ -211,7 +215,7 @@ def _sensor_requests(sim: SimulatedRig, setup: StraightnessSetup, rp: ResumePoin
     return sim.faults.requests("sensor") + per_sample * setup.samples_per_reading * remaining
 
 
-@_no_empty_run_dir
+@_one_writer
 def run_straightness(
     setup: StraightnessSetup | None,
     out: Path | str,
@@ -342,7 +346,7 @@ def _check_hands_free(setup: PositioningSetup, auto: bool, simulate: SimOptions 
                          'target; use mode "in-position" or "stability" for a hands-free run, or leave out --auto')
 
 
-@_no_empty_run_dir
+@_one_writer
 def run_positioning(
     setup: PositioningSetup | None,
     out: Path | str,
