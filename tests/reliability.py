@@ -87,18 +87,35 @@ def acquire_kind(kind: str) -> str:
     return "positioning" if kind == "positioning" else "straightness"
 
 
-def kill_resume_trial(kind: str, setup: Path, reference: Path, work: Path, seed: int) -> Counts:
+def kill_at(run_dir: Path, points: int, args: list[str | Path], work: Path) -> bool:
+    """Start ``guideway ARGS`` writing ``run_dir`` and SIGKILL it once ``points`` points are on disk.
+    True if it was killed part way; False if it had ended its run before the kill landed."""
+    proc = spawn(*args, tmp_dir=work / "tmp", stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        wait_for(lambda: line_count(run_dir / "points.csv") > points or proc.poll() is not None, timeout_s=90,
+                 what=f"{points} points")
+    finally:
+        proc.kill()
+        proc.wait()
+    assert line_count(run_dir / "points.csv") > points, f"the writer ended (exit {proc.returncode}) first"
+    return load_run(run_dir).meta.get("status") != "complete"
+
+
+def kill_resume_trial(kind: str, setup: Path, reference: Path, work: Path, seed: int) -> tuple[Counts, bool]:
     """``guideway acquire`` killed with SIGKILL after a random number of points, then ``--resume``; the
-    counts of the resumed run against the uninterrupted one."""
+    counts of the resumed run against the uninterrupted one, and whether the kill landed part way."""
     steps = len(load_run(reference).points)
-    kill_after = random.Random(seed).randrange(1, steps - 2)  # points on disk before the kill
+    # points on disk before the kill: anywhere in the first three quarters (a kill later than that often
+    # lands after the end of a run this short)
+    kill_after = random.Random(seed).randrange(1, steps * 3 // 4)
     run_dir = work / "killed"
-    kill_when(lambda: line_count(run_dir / "points.csv") > kill_after, "acquire", acquire_kind(kind), "--setup",
-              setup, "--out", run_dir, *COMMON, tmp_dir=work / "tmp", what=f"{kill_after} points")
-    res = guideway("acquire", "--resume", run_dir, *COMMON)
-    assert res.returncode == 0, res.stderr
+    killed = kill_at(run_dir, kill_after, ["acquire", acquire_kind(kind), "--setup", setup, "--out", run_dir,
+                                           *COMMON], work)
+    if killed:
+        res = guideway("acquire", "--resume", run_dir, *COMMON)
+        assert res.returncode == 0, res.stderr
     assert load_run(run_dir).meta["status"] == "complete"
-    return compare(kind, run_dir, reference)
+    return compare(kind, run_dir, reference), killed
 
 
 def points_on_disk(run_dir: Path) -> int:

@@ -28,16 +28,15 @@ from .reliability import (
     partial_run,
     points_on_disk,
     prefix_counts,
-    reference_run,
     two_writers_trial,
 )
 from .waiting import wait_for
 
 
-@pytest.fixture(scope="module")
-def long_ref(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    """A 12-station straightness set-up and its uninterrupted run."""
-    return reference_run("straightness", tmp_path_factory.mktemp("ref"))
+@pytest.fixture()
+def long_ref(reliability_references: dict[str, tuple[Path, Path]]) -> tuple[Path, Path]:
+    """The straightness trial set-up and its uninterrupted run."""
+    return reliability_references["straightness"]
 
 
 def refused_naming_the_holder(r: Refusal) -> str:
