@@ -58,3 +58,27 @@ def test_the_iso230_2_duplicate_message_names_the_point() -> None:
     dev = pd.DataFrame(rows, columns=["target_index", "target", "direction", "run", "deviation"])
     with pytest.raises(ValueError, match="target 3, direction -1, run 1"):
         evaluate_iso230_2(dev, axis_type="linear")
+
+
+def test_a_read_only_run_directory_is_one_clear_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``process`` of a run the user may not write to (root, who runs these tests, may write anywhere:
+    the refusal is put in place of the system call that creates the results' temporary files)."""
+    import errno
+    import os
+
+    from saved_runs.store import files
+
+    run = tmp_path / "run"
+    shutil.copytree(V1_RUN, run)
+    shutil.rmtree(run / "results", ignore_errors=True)
+    real_open = os.open
+
+    def read_only(path: str, flags: int, *args: int) -> int:
+        if str(path).startswith(str(run)) and flags & os.O_CREAT:
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(path))
+        return real_open(path, flags, *args)
+
+    monkeypatch.setattr(files.os, "open", read_only)
+    line = one_line_error(guideway("process", run, "--mc-trials", "0"), str(run), "permission denied",
+                          "copy the run elsewhere")
+    assert "Errno" not in line
