@@ -154,3 +154,24 @@ def test_a_read_only_run_is_one_clear_line(tmp_path: Path, long_ref: tuple[Path,
     line = one_line_error(res, str(run_dir), "permission denied")
     assert "Errno" not in line
     assert (run_dir / "points.csv").read_text() == before
+
+
+def test_the_tui_entry_point_holds_the_lock_too(tmp_path: Path, long_ref: tuple[Path, Path]) -> None:
+    """The TUI (and its runs browser) start and resume runs through ``acquisition.acquire.acquire`` with an
+    operator of their own: a run another process writes is refused there before any device is opened."""
+    import io
+
+    from acquisition.acquire import SimOptions, acquire
+    from acquisition.operators import AutoOperator
+
+    setup, _ = long_ref
+    run_dir = partial_run("straightness", setup, tmp_path, points=2)
+    before = (run_dir / "points.csv").read_text()
+    lock = take_run_lock(run_dir)  # another writer (here: this process, through another descriptor)
+    try:
+        with pytest.raises(RunInUseError, match=f"is in use: .*pid {os.getpid()} on host"):
+            acquire("straightness", None, "", run_dir, simulate=SimOptions(seed=5, noise=False), resume=True,
+                    operator=AutoOperator({}), stream=io.StringIO())
+    finally:
+        lock.release()
+    assert (run_dir / "points.csv").read_text() == before
