@@ -32,6 +32,7 @@ from .reliability import (
 SOAK_KILLS = int(os.environ.get("GUIDEWAY_SOAK_KILLS", "50"))
 SOAK_WRITERS = int(os.environ.get("GUIDEWAY_SOAK_WRITERS", "20"))
 NOTHING = Counts(0, 0, 0)
+SOAK_TIMEOUT_S = 3600  # one soak test: many trials of a few seconds each (the default per-test limit is 120 s)
 
 
 def report(line: str) -> None:
@@ -49,6 +50,7 @@ def test_killed_and_resumed_run_loses_and_repeats_nothing(tmp_path: Path, kind: 
 
 
 @pytest.mark.soak
+@pytest.mark.timeout(SOAK_TIMEOUT_S)
 @pytest.mark.parametrize("kind", KINDS)
 def test_kill_resume_soak(tmp_path: Path, kind: str, reliability_references: dict[str, tuple[Path, Path]]) -> None:
     setup, ref = reliability_references[kind]
@@ -94,6 +96,7 @@ def writer_trial(case: str, setup: Path, ref: Path, work: Path) -> Counts:
 
 
 @pytest.mark.soak
+@pytest.mark.timeout(SOAK_TIMEOUT_S)
 @pytest.mark.parametrize("case", WRITER_CASES)
 def test_two_writers_soak(tmp_path: Path, case: str, reliability_references: dict[str, tuple[Path, Path]]) -> None:
     setup, ref = reliability_references["straightness"]
