@@ -74,6 +74,9 @@ def test_a_missing_station_is_stated_and_never_passes(tmp_path: Path) -> None:
     text = guideway("process", run, "--no-write", "--mc-trials", "0")
     assert text.returncode == 0 and f"station {missing} not measured" in text.stdout
     assert "verdict: NOT EVALUATED" in text.stdout
+    report = tmp_path / "report.html"
+    assert guideway("report", run, "--out", report, "--mc-trials", "0").returncode == 0
+    assert f"Run incomplete: station {missing} not measured" in report.read_text()
 
 
 @pytest.mark.parametrize("station", [-3, 900])
