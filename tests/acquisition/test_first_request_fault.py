@@ -16,8 +16,8 @@ from ..reliability import setup_text
 PLANNED = {"straightness": 12, "positioning": 5 * 2 * 2}  # 12 stations; 5 targets x 2 runs x 2 directions
 
 
-@pytest.mark.parametrize("kind", ["straightness", "positioning"])
-@pytest.mark.parametrize("at", [1, 5])
+# request 1: the status read while the devices are opened; request 5: during the run (as before)
+@pytest.mark.parametrize(("kind", "at"), [("straightness", 1), ("positioning", 1), ("straightness", 5)])
 def test_a_one_off_controller_fault_is_retried_at_any_request(tmp_path: Path, kind: str, at: int) -> None:
     setup = tmp_path / "setup.toml"
     setup.write_text(setup_text(kind))
