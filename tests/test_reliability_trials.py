@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import sys
 from pathlib import Path
 
 import pytest
@@ -35,10 +34,10 @@ NOTHING = Counts(0, 0, 0)
 SOAK_TIMEOUT_S = 3600  # one soak test: many trials of a few seconds each (the default per-test limit is 120 s)
 
 
-def report(line: str) -> None:
+def report(capsys: pytest.CaptureFixture[str], line: str) -> None:
     """A soak figure, shown whatever pytest captures (docs/reliability.md quotes these lines)."""
-    sys.__stdout__.write(f"\n[soak] {line}\n")
-    sys.__stdout__.flush()
+    with capsys.disabled():
+        print(f"\n[soak] {line}", flush=True)
 
 
 @pytest.mark.parametrize("kind", ["straightness", "positioning"])  # the return pass: test_acquire_simulated.py
@@ -52,7 +51,8 @@ def test_killed_and_resumed_run_loses_and_repeats_nothing(tmp_path: Path, kind: 
 @pytest.mark.soak
 @pytest.mark.timeout(SOAK_TIMEOUT_S)
 @pytest.mark.parametrize("kind", KINDS)
-def test_kill_resume_soak(tmp_path: Path, kind: str, reliability_references: dict[str, tuple[Path, Path]]) -> None:
+def test_kill_resume_soak(tmp_path: Path, kind: str, capsys: pytest.CaptureFixture[str],
+                          reliability_references: dict[str, tuple[Path, Path]]) -> None:
     setup, ref = reliability_references[kind]
     total = NOTHING
     bad = []
@@ -66,7 +66,7 @@ def test_kill_resume_soak(tmp_path: Path, kind: str, reliability_references: dic
             bad.append((trials, counts))
         total += counts
         shutil.rmtree(work, ignore_errors=True)
-    report(f"kill -9 / resume, {kind}: {kills} runs killed part way and resumed ({trials - kills} more ended "
+    report(capsys, f"kill -9 / resume, {kind}: {kills} runs killed part way and resumed ({trials - kills} more ended "
            f"before the kill landed); points lost {total.lost}, duplicated {total.duplicated}, values changed "
            f"{total.changed}")
     assert total == NOTHING, bad
@@ -98,13 +98,14 @@ def writer_trial(case: str, setup: Path, ref: Path, work: Path) -> Counts:
 @pytest.mark.soak
 @pytest.mark.timeout(SOAK_TIMEOUT_S)
 @pytest.mark.parametrize("case", WRITER_CASES)
-def test_two_writers_soak(tmp_path: Path, case: str, reliability_references: dict[str, tuple[Path, Path]]) -> None:
+def test_two_writers_soak(tmp_path: Path, case: str, capsys: pytest.CaptureFixture[str],
+                          reliability_references: dict[str, tuple[Path, Path]]) -> None:
     setup, ref = reliability_references["straightness"]
     total = NOTHING
     for i in range(SOAK_WRITERS):
         work = tmp_path / f"trial{i}"
         total += writer_trial(case, setup, ref, work)  # fails at once if the second writer was not refused
         shutil.rmtree(work, ignore_errors=True)
-    report(f"two writers, {case}: {SOAK_WRITERS} trials, second writer refused in {SOAK_WRITERS}; points lost "
+    report(capsys, f"two writers, {case}: {SOAK_WRITERS} trials, second writer refused in {SOAK_WRITERS}; points lost "
            f"{total.lost}, duplicated {total.duplicated}, values changed {total.changed}")
     assert total == NOTHING
