@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 
+from saved_runs.catalog.folder import list_runs
 from saved_runs.store.reader import load_run
 
 from ..cli import ROOT, guideway, one_line_error
@@ -195,6 +196,7 @@ def test_a_killed_import_leaves_no_run(tmp_path: Path) -> None:
     data.write_text("run,direction,target_mm,reading_mm\n" + "".join(
         f"1,{d},{t},{t}\n" for d in (1, -1) for t in (0.0, 100.0, 200.0, 300.0, 400.0)))
     out = tmp_path / "run"
+    shutil.copytree(V1_RUN, tmp_path / "ref")  # a run next to it, which the runs browser lists
     killed = subprocess.run([sys.executable, "-c", KILLED_IMPORT, "import", "positioning", str(data), "--out",
                              str(out), "--compensated"], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert killed.returncode == -signal.SIGKILL, killed.stderr
@@ -202,6 +204,7 @@ def test_a_killed_import_leaves_no_run(tmp_path: Path) -> None:
     one_line_error(guideway("process", out, "--no-write"), "no such run directory")
     partial = list(tmp_path.glob(".run.*.partial"))
     assert len(partial) == 1
+    assert [r.path for r in list_runs(tmp_path)] == [tmp_path / "ref"]  # the runs browser does not offer it
     res = guideway("import", "positioning", data, "--out", out, "--compensated")
     assert res.returncode == 0, res.stderr
     assert len(load_run(out).points) == 10 and load_run(out).meta["status"] == "complete"
