@@ -39,6 +39,14 @@ def long_ref(reliability_references: dict[str, tuple[Path, Path]]) -> tuple[Path
     return reliability_references["straightness"]
 
 
+@pytest.fixture(scope="module")
+def killed_run(tmp_path_factory: pytest.TempPathFactory, reliability_references: dict[str, tuple[Path, Path]]) -> Path:
+    """A straightness run killed after 2 points, for the tests that only try to write it (and must leave
+    it as it is)."""
+    setup, _ = reliability_references["straightness"]
+    return partial_run("straightness", setup, tmp_path_factory.mktemp("killed"), points=2)
+
+
 def refused_naming_the_holder(r: Refusal) -> str:
     """The refused writer printed one line naming the other writer: its pid, this host, since when."""
     res = subprocess.CompletedProcess([], 2, "", r.stderr)
@@ -134,12 +142,10 @@ def test_import_into_a_run_being_written_is_refused(tmp_path: Path) -> None:
     assert not list(tmp_path.glob(".run.*"))  # nor a temporary directory next to it
 
 
-def test_a_read_only_run_is_one_clear_line(tmp_path: Path, long_ref: tuple[Path, Path],
-                                           monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_read_only_run_is_one_clear_line(killed_run: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """What a user without write permission meets (root, who runs these tests, is never refused: the
     refusal is put in place of the system call)."""
-    setup, _ = long_ref
-    run_dir = partial_run("straightness", setup, tmp_path, points=2)
+    run_dir = killed_run
     before = (run_dir / "points.csv").read_text()
     real_open = os.open
 
@@ -156,7 +162,7 @@ def test_a_read_only_run_is_one_clear_line(tmp_path: Path, long_ref: tuple[Path,
     assert (run_dir / "points.csv").read_text() == before
 
 
-def test_the_tui_entry_point_holds_the_lock_too(tmp_path: Path, long_ref: tuple[Path, Path]) -> None:
+def test_the_tui_entry_point_holds_the_lock_too(killed_run: Path) -> None:
     """The TUI (and its runs browser) start and resume runs through ``acquisition.acquire.acquire`` with an
     operator of their own: a run another process writes is refused there before any device is opened."""
     import io
@@ -164,8 +170,7 @@ def test_the_tui_entry_point_holds_the_lock_too(tmp_path: Path, long_ref: tuple[
     from acquisition.acquire import SimOptions, acquire
     from acquisition.operators import AutoOperator
 
-    setup, _ = long_ref
-    run_dir = partial_run("straightness", setup, tmp_path, points=2)
+    run_dir = killed_run
     before = (run_dir / "points.csv").read_text()
     lock = take_run_lock(run_dir)  # another writer (here: this process, through another descriptor)
     try:
