@@ -22,18 +22,21 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, TextIO
 
+from drivers.errors import DeviceError, ProtocolError, TransportTimeout
 from drivers.modbus_link import parse_modbus_url
 from saved_runs.errors import SetupError, UserError
+from saved_runs.store.lock import run_writer_lock
 from saved_runs.store.writer import RunStore
 
 from . import inposition  # noqa: F401 - registers the in-position message handlers
 from .cataloguing import add_completed_run, setup_catalog_url
 from .engine import RunEngine, RunOutcome, Subscriber
 from .live import DeviationCallback, HeightCallback, LiveDeviation, LiveProfile
+from .messages import Log, Prompt
 from .operators import AutoOperator, Operator, TerminalOperator
 from .plans.positioning import ARROW, positioning_plan, positioning_resume_point
 from .plans.straightness import ResumePoint, resume_point, straightness_plan
-from .rig import open_controller_rig, open_rig
+from .rig import Rig, open_controller_rig, open_rig
 from .setup.positioning import PositioningSetup, positioning_setup_from_dict
 from .setup.stored import resumed_setup
 from .setup.straightness import StraightnessSetup, straightness_setup_from_dict
@@ -183,15 +186,53 @@ def _open_store(setup: StraightnessSetup | None, out: Path, resume: bool
     return store, stored, rp
 
 
-def _no_empty_run_dir(run: Callable[..., Any]) -> Callable[..., Any]:
-    """A run that fails before its first record (devices unreachable, bad set-up) leaves no
-    empty run directory behind; one that started keeps everything it wrote."""
+# A device that answered its first request with an error, a damaged reply or not in time: a one-off fault
+# like any later one (an unreachable address, a refused connection, is not: it is reported at once).
+ONE_OFF_FAULTS = (DeviceError, ProtocolError, TransportTimeout)
+
+
+def _open_devices(open_fn: Callable[[], Rig], operator: Operator, store: RunStore) -> tuple[Rig, list[str]]:
+    """Open the devices.  A one-off fault on the very first request pauses the run as the engine pauses it
+    for a later one: the operator retries (the devices are opened again) or aborts (the fault is raised).
+    Returns the rig and the faults met, which run.json ``faults`` lists with the later ones."""
+    faults: list[str] = []
+    while True:
+        try:
+            rig = open_fn()
+        except UserError as exc:
+            if not isinstance(exc.__cause__, ONE_OFF_FAULTS):
+                raise
+            fault = str(exc)
+            faults.append(fault)
+            operator.log(Log(f"device fault: {fault}"))
+            answer = operator.prompt(Prompt(
+                f"Device fault: {fault}. Check the device, its cable and power, then retry (the tool "
+                "reconnects), or abort the run.", ("retry", "abort"), key="fault", fault=fault))
+            if answer != "retry":
+                raise
+            continue
+        if faults:
+            operator.log(Log("devices reconnected; going on"))
+            prior = list(store.meta.get("faults", [])) if store.meta else []
+            if store.meta:  # a resumed run: its earlier faults, then these
+                store.meta["faults"] = prior + faults
+            else:
+                store.header["faults"] = faults
+        return rig, faults
+
+
+def _one_writer(run: Callable[..., Any]) -> Callable[..., Any]:
+    """The run directory's writer lock (saved_runs/store/lock.py) held for the whole run, new or
+    resumed: a second writer is refused at once, naming this process.  A run that fails before its
+    first record (devices unreachable, bad set-up) leaves no empty run directory behind; one that
+    started keeps everything it wrote."""
 
     @functools.wraps(run)
-    def wrapper(setup: Any, out: Path | str, *args: Any, **kwargs: Any) -> Any:
+    def wrapper(setup: Any, out: Path | str, *args: Any, resume: bool = False, **kwargs: Any) -> Any:
         existed = Path(out).exists()
         try:
-            return run(setup, out, *args, **kwargs)
+            with run_writer_lock(out, new=not resume):
+                return run(setup, out, *args, resume=resume, **kwargs)
         except BaseException:
             if not existed:
                 with contextlib.suppress(OSError):  # rmdir refuses a directory that holds anything
@@ -212,7 +253,7 @@ def _sensor_requests(sim: SimulatedRig, setup: StraightnessSetup, rp: ResumePoin
     return sim.faults.requests("sensor") + per_sample * setup.samples_per_reading * remaining
 
 
-@_no_empty_run_dir
+@_one_writer
 def run_straightness(
     setup: StraightnessSetup | None,
     out: Path | str,
@@ -279,18 +320,21 @@ def run_straightness(
         print(f"hands-free: at each station the tool waits up to {a.station_timeout_s:g} s for the block to rest "
               f"at the station (|lin| <= {setup.validation.max_lin_um:g} um, still within {a.still_um:g} um for "
               f"{a.still_s:g} s), then captures", file=stream)
+    unattended = auto and operator is None  # the simulated technician, not a given operator
     try:
-        rig = open_rig(devices.sensor_protocol, devices.sensor_url, devices.controller_url,
-                       baudrate=devices.sensor_baud, word_order=devices.word_order,
-                       environment_url=devices.environment_url or None, timing=devices.timing,
-                       sensor_options=devices.sensor_options)
+        actions = {"place_block": sim.place_block} if sim is not None else {}
+        operator = _operator(operator, actions, auto, stdin, stream)
+        rig, open_faults = _open_devices(
+            lambda: open_rig(devices.sensor_protocol, devices.sensor_url, devices.controller_url,
+                             baudrate=devices.sensor_baud, word_order=devices.word_order,
+                             environment_url=devices.environment_url or None, timing=devices.timing,
+                             sensor_options=devices.sensor_options), operator, store)
         try:
             _record_devices(store, rig, simulate, resumed=rp is not None)
             if sim is not None:
-                expected = _sensor_requests(sim, setup, rp, auto and operator is None)
+                expected = _sensor_requests(sim, setup, rp, unattended)
                 refuse_faults_that_cannot_fire(sim.faults, sensor=True, sensor_requests=expected)
-            actions = {"place_block": sim.place_block} if sim is not None else {}
-            operator = _operator(operator, actions, auto, stdin, stream)
+
             def show(p: int, k: int, h: float) -> None:
                 print(f"  live: station {k}{' (return)' if p else ''} surface height {h:+.3f} um", file=stream)
                 if on_height is not None:
@@ -302,6 +346,7 @@ def run_straightness(
                                and int(r["station"]) == int(loaded[0]["station"]) + 1), None)
             live = LiveProfile(setup.geometry, show, first, first_step)
             engine = RunEngine(rig, operator, (store, live, *subscribers))
+            engine.faults_at_open = open_faults  # later faults are listed after them
             with _engine_context(on_engine, engine):
                 outcome = engine.run(straightness_plan(setup, {}, resume=rp, hands_free=hands_free))
             if sim is not None:
@@ -343,7 +388,7 @@ def _check_hands_free(setup: PositioningSetup, auto: bool, simulate: SimOptions 
                          'target; use mode "in-position" or "stability" for a hands-free run, or leave out --auto')
 
 
-@_no_empty_run_dir
+@_one_writer
 def run_positioning(
     setup: PositioningSetup | None,
     out: Path | str,
@@ -405,12 +450,14 @@ def run_positioning(
     elif not url:
         raise SetupError("[controller] url is missing in the setup; give the controller's address or use --simulate")
     try:
-        rig = open_controller_rig(url, word_order=setup.devices.word_order, environment_url=environment_url or None,
-                                  timing=setup.devices.timing)
+        actions = {"cycle_start": sim.cycle_start} if sim is not None else {}
+        operator = _operator(operator, actions, auto, stdin, stream)
+        rig, open_faults = _open_devices(
+            lambda: open_controller_rig(url, word_order=setup.devices.word_order,
+                                        environment_url=environment_url or None, timing=setup.devices.timing),
+            operator, store)
         try:
             _record_devices(store, rig, simulate, resumed=rp is not None)
-            actions = {"cycle_start": sim.cycle_start} if sim is not None else {}
-            operator = _operator(operator, actions, auto, stdin, stream)
             first = store.loaded_points[0] if rp is not None and store.loaded_points else None
             printer = live_deviation_printer(stream, "arcsec" if setup.axis_type == "rotary" else "um")
 
@@ -421,6 +468,7 @@ def run_positioning(
 
             live = LiveDeviation(setup.axis_type, setup.environment.to_dict(), show_deviation, first)
             engine = RunEngine(rig, operator, (store, live, *subscribers))
+            engine.faults_at_open = open_faults
             with _engine_context(on_engine, engine):
                 outcome = engine.run(positioning_plan(setup, {}, resume=rp))
             if sim is not None:

@@ -154,6 +154,7 @@ class RunEngine:
         self._uid = ""
         self._started = False
         self.faults: list[str] = []  # device faults met (and recovered or not) in the last run
+        self.faults_at_open: list[str] = []  # met while the devices were opened (listed first in ``faults``)
         self._handlers: dict[type, Callable[[Any], Any]] = {
             OpenRun: self._open_run,
             Instruct: self._ask,
@@ -390,7 +391,7 @@ class RunEngine:
         self._requests.clear()
         self._num_events = 0
         self._started = False
-        self.faults = []
+        self.faults = list(self.faults_at_open)
         reason = ""
         reply: Any = None
         end_state = RunState.STOPPING

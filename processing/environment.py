@@ -45,6 +45,9 @@ class MissingValueError(ValueError):
         self.point, self.column, self.why = point, column, why
 
 
+WAVELENGTH_RANGE_NM = (300.0, 1700.0)  # vacuum wavelengths the air-index equations cover (guideway air-index)
+
+
 @dataclass(frozen=True)
 class EnvironmentSettings:
     """``setup.environment`` of a positioning run (docs/run-format.md)."""
@@ -86,6 +89,10 @@ class EnvironmentSettings:
             dead_path_mm=num("dead_path_mm", 0.0),  # type: ignore[arg-type]
             index_equation=eq,
         )
+        lo, hi = WAVELENGTH_RANGE_NM
+        if not lo <= s.wavelength_nm <= hi:  # also a negative or zero one, which would still give an index
+            raise ValueError(f"setup.environment.wavelength_nm = {s.wavelength_nm:g} is outside {lo:g} to {hi:g} nm, "
+                             "the range of the air-index equations (a HeNe laser: 632.991)")
         if s.refractive_index_assumed is not None and not 0.9 < s.refractive_index_assumed < 1.1:
             raise ValueError(f"setup.environment.refractive_index_assumed = {s.refractive_index_assumed} is not an "
                              "air index (expected about 1.0 to 1.0003)")

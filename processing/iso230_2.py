@@ -367,8 +367,11 @@ def deviation_arrays(deviations: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, 
         sel = dr == d
         arr = np.full((index.size, n), np.nan)
         flat = inverse[sel] * n + (rn[sel] - 1)
-        if np.unique(flat).size != flat.size:
-            raise ValueError(f"two points for the same target, direction {d:+d} and run")
+        values, counts = np.unique(flat, return_counts=True)
+        if values.size != flat.size:
+            twice = int(values[counts > 1][0])
+            raise ValueError(f"two points for target {int(index[twice // n])}, direction {d:+d}, run {twice % n + 1}; "
+                             "remove one of them")
         arr.flat[flat] = dev[sel]
         out.append(arr)
     order = np.argsort(targets, kind="stable")

@@ -1,5 +1,7 @@
 """Expected failures that reach the user as one-line messages (exit code 2)."""
 
+import errno
+
 from drivers.errors import DriverError
 
 
@@ -20,3 +22,15 @@ class SetupError(UserError):
 
 # Every failure the command line reports as one line with exit code 2 (no traceback).
 EXPECTED_ERRORS: tuple[type[Exception], ...] = (UserError, DriverError)
+
+
+def os_error_line(exc: OSError) -> str:
+    """One line for a file that could not be written or read: the file and the reason in words (not
+    ``[Errno 13] Permission denied: '...'``), and what to do for a permission problem."""
+    where = exc.filename if exc.filename is not None else "a file"
+    reason = (exc.strerror or str(exc)).lower()
+    if exc.errno in (errno.EACCES, errno.EPERM):
+        return f"{where}: {reason}; you may not write there (a read-only run or folder): copy the run elsewhere"
+    if exc.errno == errno.EROFS:
+        return f"{where}: {reason}; copy the run to a writable disk"
+    return f"{where}: {reason}"

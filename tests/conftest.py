@@ -80,3 +80,19 @@ def setup_file(tmp_path: Path) -> Path:
     path = tmp_path / "setup.toml"
     path.write_text(straightness_setup_text(stations=6, samples=2))
     return path
+
+
+@pytest.fixture(scope="session")
+def reliability_references(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, Path]]:
+    """Each run kind's trial set-up and the run it gives when never interrupted (tests/reliability.py),
+    made when first asked for and shared by the reliability tests."""
+    from .reliability import reference_run
+
+    base = tmp_path_factory.mktemp("reliability-references")
+
+    class Lazy(dict):
+        def __missing__(self, kind: str) -> tuple[Path, Path]:
+            self[kind] = reference_run(kind, base)
+            return self[kind]
+
+    return Lazy()

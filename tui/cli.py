@@ -12,7 +12,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from saved_runs.errors import EXPECTED_ERRORS
+from saved_runs.errors import EXPECTED_ERRORS, os_error_line
 
 from .commands import register_all
 
@@ -49,7 +49,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:
         return 0
     except OSError as exc:  # a file or folder that cannot be written or read (e.g. RUN/results on a full disk)
-        print(f"guideway: error: {exc}", file=sys.stderr)
+        print(f"guideway: error: {os_error_line(exc)}", file=sys.stderr)
         return EXIT_USAGE
 
 

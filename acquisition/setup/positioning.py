@@ -238,6 +238,9 @@ def _positioning_setup(data: dict[str, Any], source: str) -> PositioningSetup:
     feed = ax.get(f"feed_{u}_min", float, 2000.0 if u == "mm" else 1800.0)
     datum = ax.get(f"datum_{u}", float, start)
     max_dev = ax.get(f"max_deviation_{u}", float, 1.0 if u == "mm" else 0.1)
+    if not (math.isfinite(max_dev) and max_dev > 0):  # 0 would reject every reading of the run
+        raise SetupError(f"{source}: [axis] max_deviation_{u} must be a positive {u} value (a reading further "
+                         f"from its target is rejected), got {max_dev:g}")
 
     tr = top.table("trigger")
     d = TriggerSetup()

@@ -9,14 +9,13 @@ the machine time of its cycle (moves at the feed plus the dwell), a straightness
 
 from __future__ import annotations
 
-import uuid
 from pathlib import Path
 from typing import Any
 
 from mocks.machine_axis import MachineAxis, MachineStop
 from mocks.offline import StepClock, axis_captures, world_captures
 from saved_runs.errors import SetupError
-from saved_runs.store.writer import RunStore
+from saved_runs.store.whole import write_whole_run
 
 from .effects import scenario_axis, scenario_world
 from .machine import optics_of
@@ -50,12 +49,10 @@ def simulate_run(scenario: Scenario | Path | str, out: Path | str, *, seed: int 
         header = scenario.straightness.header()
     header.update(instruments=SIMULATED_INSTRUMENTS, simulation=simulation)
     header["notes"] = "; ".join(filter(None, [header.get("notes", ""), f"simulated from {scenario.source}"]))
-    store = RunStore(out, header)
-    store("start", {"kind": scenario.kind, "uid": uuid.uuid4().hex})
-    # plain numbers (numpy scalars would not be written in round-trip form)
-    store.record_many([{k: v if isinstance(v, int) else float(v) for k, v in row.items()} for row in rows])
-    store("stop", {"exit_status": "success", "reason": f"simulated ({len(rows)} points, seed {seed})"})
-    return store.run_dir, store.points_written
+    # plain numbers (numpy scalars would not be written in round-trip form); complete or not at all
+    return write_whole_run(out, header, scenario.kind,
+                           [{k: v if isinstance(v, int) else float(v) for k, v in row.items()} for row in rows],
+                           f"simulated ({len(rows)} points, seed {seed})")
 
 
 def simulate_positioning_points(scenario: Scenario, seed: int, noise: bool = True) -> list[dict[str, Any]]:

@@ -46,9 +46,12 @@ def run_summary(run_dir: Path) -> RunSummary:
 
 
 def list_runs(folder: Path | str) -> list[RunSummary]:
-    """Every run directory directly in ``folder`` (those holding a run.json), newest first."""
+    """Every run directory directly in ``folder`` (those holding a run.json), newest first; hidden ones
+    (a ``.NAME.XXXXXXXX.partial`` import or simulation being written, or killed: saved_runs/store/whole.py)
+    are not runs."""
     folder = Path(folder)
     if not folder.is_dir():
         return []
-    runs = [run_summary(d) for d in sorted(folder.iterdir()) if (d / "run.json").is_file()]
+    runs = [run_summary(d) for d in sorted(folder.iterdir())
+            if not d.name.startswith(".") and (d / "run.json").is_file()]
     return sorted(runs, key=lambda r: (r.created, r.path.name), reverse=True)

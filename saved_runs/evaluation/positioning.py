@@ -22,6 +22,7 @@ from processing.iso230_2 import (
 )
 
 from ..errors import RunFormatError
+from ..store.plan import check_positioning_points
 from ..store.reader import LoadedRun
 from .limits import OutOfRange, out_of_range, out_of_range_dict, print_out_of_range
 from .tolerance import Verdict, positioning_verdict, verdict_dict
@@ -138,6 +139,7 @@ def evaluate_positioning_run(run: LoadedRun, *, k: float = 2.0, edition: str = D
                              accept_out_of_range: bool = False) -> PositioningEvaluation:
     """Evaluate a loaded positioning run (ISO 230-2, VDI/DGQ 3441); readings further from their
     target than the set-up allows are refused unless ``accept_out_of_range``."""
+    check_positioning_points(run)
     accepted = out_of_range(run, accept=accept_out_of_range) if len(run.points) else ()
     deviations, axis_type, info = positioning_deviations(run)
     try:

@@ -15,6 +15,7 @@ from processing.straightness import StraightnessResult, evaluate_straightness
 from processing.uncertainty import UncertaintyInputs
 
 from ..errors import RunFormatError
+from ..store.plan import check_straightness_points, gap_text, straightness_gaps
 from ..store.reader import LoadedRun
 from .limits import OutOfRange, out_of_range, out_of_range_dict, print_out_of_range
 from .tolerance import Verdict, straightness_verdict, verdict_dict
@@ -26,9 +27,13 @@ class StraightnessEvaluation:
     result: StraightnessResult
     out_of_range: tuple[OutOfRange, ...] = ()  # accepted with --accept-out-of-range (.limits)
     verdict: Verdict | None = None  # against the set-up's [tolerance] (.tolerance)
+    gaps: tuple[tuple[int, int], ...] = ()  # planned (pass, station) steps neither on disk nor skipped
 
     def to_dict(self) -> dict[str, Any]:
-        return {**self.result.to_dict(), **verdict_dict(self.verdict), **out_of_range_dict(self.out_of_range)}
+        missing = {"missing_steps": {"steps": [{"pass": p, "station": k} for p, k in self.gaps],
+                                     "text": gap_text(list(self.gaps))}} if self.gaps else {}
+        return {**self.result.to_dict(), **verdict_dict(self.verdict), **out_of_range_dict(self.out_of_range),
+                **missing}
 
     def write(self, results_dir: Path) -> Path:
         from ..results.straightness import write_straightness_results  # matplotlib only when writing
@@ -40,6 +45,9 @@ class StraightnessEvaluation:
         n = len(r.profile)
         span = float(r.profile["x_mm"].iloc[-1]) if n else 0.0
         print_out_of_range(self.out_of_range, stream)
+        if self.gaps:
+            print(f"warning: {self.run.path}/points.csv: {gap_text(list(self.gaps))}; the profile spans the "
+                  "stations measured and no verdict can pass", file=stream)
         print(f"stations: {n}, travel {span:g} mm, decoupling: {r.method}", file=stream)
         mc = r.uncertainty.to_dict().get("straightness", {}) if r.uncertainty else {}
         for name, value in r.straightness_um().items():
@@ -114,8 +122,11 @@ def run_geometry(run: LoadedRun) -> BlockGeometry:
     """The set-up geometry of a straightness run (run.json ``setup.geometry``); a one-line error if invalid."""
     try:
         return BlockGeometry.from_dict(run.meta["setup"]["geometry"])
-    except (KeyError, TypeError, ValueError) as exc:
-        raise RunFormatError(f"{run.path}/run.json: invalid setup.geometry ({exc})") from exc
+    except KeyError:
+        raise RunFormatError(f"{run.path}/run.json: no setup.geometry (where the mirror and the sensor sit on the "
+                             "block); restore run.json from the run's original") from None
+    except (TypeError, ValueError) as exc:
+        raise RunFormatError(f"{run.path}/run.json: invalid setup.geometry ({exc}); fix or restore run.json") from None
 
 
 def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, mc_trials: int | None = None,
@@ -127,6 +138,8 @@ def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, m
     limits are refused unless ``accept_out_of_range`` (.limits).
     """
     geometry = run_geometry(run)
+    plan = check_straightness_points(run)
+    gaps = straightness_gaps(run, plan)
     if len(run.points) < 2:
         raise RunFormatError(f"{run.path}: {len(run.points)} point(s) recorded; need at least 2 to evaluate")
     try:
@@ -143,5 +156,6 @@ def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, m
     except ValueError as exc:
         raise RunFormatError(f"{run.path}: {exc}") from exc
     u = result.uncertainty.to_dict().get("straightness", {}) if result.uncertainty is not None else {}
-    verdict = straightness_verdict(run.meta, f"{run.path}/run.json", result.straightness_um(), u)
-    return StraightnessEvaluation(run, result, accepted, verdict)
+    verdict = straightness_verdict(run.meta, f"{run.path}/run.json", result.straightness_um(), u,
+                                   incomplete=gap_text(gaps) if gaps else "")
+    return StraightnessEvaluation(run, result, accepted, verdict, tuple(gaps))

@@ -99,20 +99,26 @@ def check(quantity: str, value: float, tolerance: float, unit: str, uncertainty:
 
 @dataclass(frozen=True)
 class Verdict:
+    """The checks against ``[tolerance]``; ``incomplete`` says which planned steps the run lacks (a run
+    with a gap cannot pass: the missing station could be the one out of tolerance)."""
+
     checks: tuple[Check, ...]
+    incomplete: str = ""
 
     @property
     def result(self) -> str:
         results = {c.result for c in self.checks}
         if "fail" in results:
             return "fail"
-        return "not evaluated" if "not evaluated" in results else "pass"
+        return "not evaluated" if "not evaluated" in results or self.incomplete else "pass"
 
     def to_dict(self) -> dict[str, Any]:
-        return {"result": self.result, "checks": [asdict(c) for c in self.checks]}
+        return {"result": self.result, "checks": [asdict(c) for c in self.checks],
+                **({"incomplete": self.incomplete} if self.incomplete else {})}
 
     def text(self) -> str:
-        return f"verdict: {self.result.upper()} ({'; '.join(c.text() for c in self.checks)})"
+        gap = f"; run incomplete: {self.incomplete}" if self.incomplete else ""
+        return f"verdict: {self.result.upper()} ({'; '.join(c.text() for c in self.checks)}{gap})"
 
 
 def verdict_dict(verdict: Verdict | None) -> dict[str, Any]:
@@ -128,15 +134,16 @@ def _stored(meta: dict[str, Any], where: str, parse: Any, *args: Any) -> Any:
 
 
 def straightness_verdict(meta: dict[str, Any], where: str, straightness_um: dict[str, float],
-                         uncertainty_um: dict[str, float]) -> Verdict | None:
+                         uncertainty_um: dict[str, float], incomplete: str = "") -> Verdict | None:
     """The verdict of a straightness run against run.json ``setup.tolerance`` (None without one);
-    ``straightness_um`` and ``uncertainty_um`` (U, k = 2) per reference line."""
+    ``straightness_um`` and ``uncertainty_um`` (U, k = 2) per reference line; ``incomplete``: the gap
+    in the run, if any (then the verdict is not PASS)."""
     tol = _stored(meta, where, straightness_tolerance)
     if not tol:
         return None
     line = tol["reference_line"]
     return Verdict((check(f"straightness ({line.replace('_', ' ')} line)", straightness_um.get(line, math.nan),
-                          tol["straightness_um"], "um", uncertainty_um.get(line)),))
+                          tol["straightness_um"], "um", uncertainty_um.get(line)),), incomplete)
 
 
 def positioning_verdict(meta: dict[str, Any], where: str, axis: dict[str, float], unit: str) -> Verdict | None:

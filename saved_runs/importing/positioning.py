@@ -6,7 +6,7 @@ Input columns (header line, any order): ``run, direction, target_mm, reading_mm`
 ``air_temp_c, air_pressure_hpa, humidity_pct, material_temp_c`` (names and units
 of docs/run-format.md).  ``direction`` is +1 or -1, ``run`` counts approaches per
 direction from 1.  ``target_index`` is derived: the distinct targets in ascending
-order are numbered 1 … m.  The run directory is written with :class:`RunStore`.
+order are numbered 1 … m.  The run directory is written at once (:func:`~saved_runs.store.whole.write_whole_run`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,6 @@ from __future__ import annotations
 import csv
 import io
 import math
-import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,7 +24,7 @@ from processing.columns import ENVIRONMENT, ERROR_CHANNELS
 from processing.iso230_2 import check_target_count
 
 from ..errors import UserError
-from ..store.writer import RunStore
+from ..store.whole import write_whole_run
 
 MAX_PROBLEMS_SHOWN = 20
 
@@ -226,10 +225,6 @@ def import_positioning(csv_path: Path | str, out: Path | str, opts: PositioningI
             "environment": env,
         },
     }
-    store = RunStore(out, header)
-    store.prepare()
-    store("start", {"kind": "positioning", "uid": uuid.uuid4().hex})
-    for r in records:
-        store("event", {"data": r})
-    store("stop", {"exit_status": "success", "reason": f"imported from {csv_path}"})
-    return store.run_dir, store.points_written
+    # written into a temporary directory and renamed into place when complete: a killed import leaves
+    # no partial run at ``out`` (saved_runs/store/whole.py)
+    return write_whole_run(out, header, "positioning", records, f"imported from {csv_path}")

@@ -194,6 +194,8 @@ def verdict_section(page: HtmlPage, verdict: Any, what: str) -> None:
         return
     cls = {"pass": "verdict-pass", "fail": "verdict-fail"}.get(verdict.result, "verdict-open")
     page.paragraph(f"Verdict: {verdict.result.upper()}", f"headline {cls}")
+    if getattr(verdict, "incomplete", ""):  # a gap in the run: no PASS (saved_runs/store/plan.py)
+        page.paragraph(f"Run incomplete: {verdict.incomplete}; the verdict cannot be PASS.", "note")
     rows = [(c.quantity, c.value, c.tolerance, UNIT_LABELS.get(c.unit, c.unit), c.uncertainty,
              c.result + (" (within U of the limit: not proven, ISO 14253-1)" if c.within_uncertainty else ""))
             for c in verdict.checks]

@@ -58,7 +58,11 @@ def load_run(run_dir: Path | str) -> LoadedRun:
     if kind not in KINDS:
         raise RunFormatError(f"{meta_path}: unknown run kind {kind!r}")
     _check_meta_types(meta, meta_path)
-    points, warnings = _read_points(run_dir / "points.csv", point_columns(kind, meta.get("axis_type")))
+    try:
+        columns = point_columns(kind, meta.get("axis_type"))
+    except RunFormatError as exc:
+        raise RunFormatError(f"{meta_path}: {exc}; fix or restore run.json") from None
+    points, warnings = _read_points(run_dir / "points.csv", columns)
     return LoadedRun(run_dir, meta, points, tuple(warnings))
 
 

@@ -17,6 +17,8 @@ from typing import Any, TextIO
 from ..errors import RunFormatError
 from .files import fsync_dir, write_json_atomic, write_text_atomic
 from .format import FORMAT, VERSION, format_cell, point_columns
+from .lock import run_files
+from .plan import check_points_against_plan
 from .reader import load_run
 
 STATUS_BY_EXIT = {"success": "complete", "abort": "aborted", "fail": "aborted"}
@@ -60,6 +62,7 @@ class RunStore:
         run = load_run(run_dir)
         if run.meta.get("status") == "complete":
             raise RunFormatError(f"{run.path}: the run is already complete; nothing to resume")
+        check_points_against_plan(run)  # a point outside the plan is not continued (and marked complete)
         store = cls(run.path, {})
         store.meta = dict(run.meta)
         store._columns = point_columns(run.kind, run.meta.get("axis_type"))
@@ -76,11 +79,11 @@ class RunStore:
         return store
 
     def prepare(self) -> None:
-        """Create the directory; refuse one that already holds files."""
+        """Create the directory; refuse one that already holds files (its writer lock aside)."""
         if self.run_dir.exists():
             if not self.run_dir.is_dir():
                 raise RunFormatError(f"{self.run_dir} exists and is not a directory; choose another --out")
-            if any(self.run_dir.iterdir()):
+            if run_files(self.run_dir):
                 raise RunFormatError(f"{self.run_dir} is not empty; choose a new directory for the run")
         self.run_dir.mkdir(parents=True, exist_ok=True)
 

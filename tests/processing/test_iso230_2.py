@@ -150,7 +150,7 @@ def test_bad_input() -> None:
         evaluate_iso230_2(pd.DataFrame({"target_index": [1], "target": [0.0], "direction": [2], "run": [1],
                                         "deviation": [0.0]}))
     df = long_table([0.0], [[1, 2]], [[1, 2]])
-    with pytest.raises(ValueError, match="same target"):
+    with pytest.raises(ValueError, match=r"two points for target 1, direction \+1, run 1"):
         evaluate_iso230_2(pd.concat([df, df.iloc[:1]]))
     with pytest.raises(ValueError, match="edition"):
         evaluate_iso230_2(df, edition="ISO 230-2:1988")
