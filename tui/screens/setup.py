@@ -235,6 +235,17 @@ def form_message(message: str, fields: list[Field], source: str = "set-up") -> s
     return text
 
 
+NUMBER_KEYS = frozenset("0123456789.,;-+eE ")
+
+
+class NumberInput(Input):
+    """A field for numbers: it takes the characters numbers are written with, so that the letter
+    keys stay the form's (``q`` quits from here, as from a tick box)."""
+
+    def check_consume_key(self, key: str, character: str | None) -> bool:
+        return character is not None and character in NUMBER_KEYS
+
+
 class Tick(Checkbox):
     """A check box that reads without colour: ``[x]`` ticked, ``[ ]`` not."""
 
@@ -337,7 +348,8 @@ class SetupScreen(Screen):
                 Binding("pageup", "section(-1)", "previous section", show=False, priority=True),
                 Binding("end,ctrl+end", "edge(1)", "last field", show=False, priority=True),
                 Binding("home,ctrl+home", "edge(-1)", "first field", show=False, priority=True),
-                # q quits from every field but one that takes free text (there it is a letter; Esc leaves it)
+                # q quits from every field but one that takes free text (there it is a letter; Esc leaves it):
+                # the number fields do not take letters (NumberInput)
                 Binding("q", "quit_form", "quit", show=False, priority=True),
                 Binding("escape", "leave_field", "leave the field", show=False)]
     DEFAULT_CSS = """
@@ -463,10 +475,12 @@ class SetupScreen(Screen):
                     widget: Any = Tick(f.label, bool(value), id=f.id)
                     widgets.append(Vertical(widget, Static("", classes="error", id=f"{f.id}-error"), classes="row"))
                     continue
-                if f.kind == "choice":
-                    widget = Pick(f.choices, value if value in f.choices else f.choices[0], id=f.id)
+                if f.kind == "choice":  # a value the form does not offer (from a file) stays, for the loader to name
+                    extra = (value,) if isinstance(value, str) and value not in f.choices else ()
+                    widget = Pick(f.choices + extra, value if value in f.choices + extra else f.choices[0], id=f.id)
                 else:
-                    widget = Input(_text(value), placeholder=f.hint, id=f.id, compact=True)
+                    kind = Input if f.text else NumberInput
+                    widget = kind(_text(value), placeholder=f.hint, id=f.id, compact=True)
                 widgets.append(Vertical(Horizontal(Static(f.label, classes="label"), widget, classes="row"),
                                         Static("", classes="error", id=f"{f.id}-error")))
             boxes.append(Vertical(*widgets, classes="box"))
@@ -660,10 +674,8 @@ class SetupScreen(Screen):
         self.app.push_screen(JumpScreen(titles), chosen)
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
-        if action == "quit_form":  # a letter in a field of free text
-            f = self.focused
-            return not (isinstance(f, Input) and (f.id in ("setup-file", "run-dir")
-                                                  or any(x.id == f.id and x.text for x in self.fields())))
+        if action == "quit_form":  # (a field of free text keeps its letters: Textual does not offer it q)
+            return not (isinstance(self.focused, Input) and not isinstance(self.focused, NumberInput))
         return True
 
     def action_quit_form(self) -> None:
