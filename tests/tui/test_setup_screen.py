@@ -237,3 +237,11 @@ def test_the_wide_form_puts_sections_side_by_side() -> None:
     ax, bx, ay, by = run_form(check, size=(160, 48))
     assert bx > ax + 40 and abs(by - ay) <= 1  # Block and stations beside Run, not below it
     assert isinstance(SetupScreen, type)
+
+
+def test_an_empty_station_count_is_asked_for_in_the_form_s_words() -> None:
+    async def check(pilot: Any, app: Any) -> str:
+        await type_into(pilot, app, "f-block-stations", "")
+        return error_text(app, "f-block-stations")
+
+    assert run_form(check, source=STRAIGHTNESS).startswith("give the stations")

@@ -224,10 +224,17 @@ def field_for_message(message: str, fields: list[Field]) -> Field | None:
     return found[0][2]
 
 
+# loader messages about keys the form has no field of, said in the form's words
+FORM_WORDS = {"[block] give exactly one of stations or travel_length_mm":
+              "give the stations (a set-up file may give [block] travel_length_mm instead)"}
+
+
 def form_message(message: str, fields: list[Field], source: str = "set-up") -> str:
     """A loader message in the form's words: without the set-up's name, each key it names
     (``[block] length_mm``, ``block_length_mm``) replaced by the label on the form."""
     text = message.removeprefix(f"{source}: ")
+    for loader, form in FORM_WORDS.items():
+        text = text.replace(loader, form)
     for f in fields:
         names = ([f"[{f.table}] {f.key}"] if f.table else []) + [n for n in (*f.aliases, f.key) if "_" in n]
         for name in names:
