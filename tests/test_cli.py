@@ -66,7 +66,7 @@ def test_usage_errors_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
         main(["demo", "--stations", "many"])
     assert info.value.code == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith("guideway: error: argument --stations: invalid int value")
+    assert err.count("\n") == 1 and err.startswith("guideway: error: argument --stations: a whole number is needed")
     assert "guideway demo --help" in err
 
 

@@ -28,7 +28,7 @@ captures.  After ``station_timeout_s`` it asks (keep waiting, skip, abort).
 from __future__ import annotations
 
 import math
-from collections.abc import Generator
+from collections.abc import Generator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -138,18 +138,18 @@ class ResumePoint:
     skipped: tuple[dict[str, Any], ...] = ()
 
 
-def resume_point(meta: dict[str, Any], rows: list[dict[str, Any]], steps: list[Step]) -> ResumePoint:
+def resume_point(meta: dict[str, Any], rows: list[dict[str, Any]], steps: Sequence[Step]) -> ResumePoint:
     """Work out the resume point from run.json and the points on disk.
 
     The points are the authority (each is fsynced before the run moves on); run.json's
-    ``skipped`` adds the steps skipped without a point.
+    ``skipped`` adds the steps skipped without a point.  ``steps`` is looked up, never copied
+    (:class:`~acquisition.setup.straightness.Steps` computes its index).
     """
-    index = {s: i for i, s in enumerate(steps)}
     points = {(int(r["pass"]), int(r["station"])): r for r in rows}
     skipped = tuple(meta.get("skipped", []))
-    done = [index[s] for s in points if s in index]
-    done += [index[(int(s["pass"]), int(s["station"]))] for s in skipped
-             if (int(s["pass"]), int(s["station"])) in index]
+    done = [steps.index(s) for s in points if s in steps]
+    done += [steps.index((int(s["pass"]), int(s["station"]))) for s in skipped
+             if (int(s["pass"]), int(s["station"])) in steps]
     t0 = float(meta.get("start_time_s", 0.0))
     return ResumePoint(str(meta.get("uid", "")), t0, max(done, default=-1) + 1, points, skipped)
 

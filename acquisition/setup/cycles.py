@@ -17,7 +17,9 @@ genuine one from the stated direction (``target_index`` 0 = not measured).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import overload
 
 import numpy as np
 
@@ -115,37 +117,82 @@ def check_targets(targets: tuple[float, ...], axis_type: str, span: float | None
         raise SetupError(f"[axis] targets: {note}; give more targets or set allow_nonconforming_targets = true")
 
 
-def linear_cycle(targets: tuple[float, ...], runs: int, overrun: float) -> list[Stop]:
-    """The standard test cycle: all targets upwards, reverse beyond the last, all downwards,
-    reverse beyond the first; ``runs`` times."""
-    _check(targets, runs, overrun)
-    stops: list[Stop] = []
-    m = len(targets)
-    for j in range(1, runs + 1):
-        stops.append(Stop(targets[0] - overrun, 0, j, +1))
-        stops += [Stop(targets[i], i + 1, j, +1) for i in range(m)]
-        stops.append(Stop(targets[-1] + overrun, 0, j, -1))
-        stops += [Stop(targets[i], i + 1, j, -1) for i in range(m - 1, -1, -1)]
-    return stops
+class Cycle(Sequence[Stop]):
+    """The stops of a test cycle, each computed from its index (never a list: the sizes are checked
+    against acquisition/setup/maxima.py, and a plan reads one stop at a time).
+
+    ``linear``: the standard test cycle: all targets upwards, reverse beyond the last, all
+    downwards, reverse beyond the first; ``runs`` times.  ``step`` (ISO 230-2 Annex B): at each
+    target all up and down approaches before moving on.  ``measured``: only the stops where a
+    point is captured (``target_index`` > 0), in the same order.
+    """
+
+    def __init__(self, kind: str, targets: tuple[float, ...], runs: int, overrun: float, *,
+                 measured: bool = False) -> None:
+        if kind not in CYCLES:
+            raise SetupError(f"unknown cycle {kind!r}; use one of {', '.join(CYCLES)}")
+        _check(targets, runs, overrun)
+        self.kind, self.targets, self.runs, self.overrun, self.measured = kind, tuple(targets), runs, overrun, measured
+        m = len(self.targets)
+        # stops per block: a run of the linear cycle, a target of the step cycle
+        self._block = (2 * m if measured else 2 * m + 2) if kind == "linear" else (2 if measured else 4) * runs
+        self._blocks = runs if kind == "linear" else m
+
+    def __len__(self) -> int:
+        return self._block * self._blocks
+
+    @overload
+    def __getitem__(self, i: int) -> Stop: ...
+    @overload
+    def __getitem__(self, i: slice) -> list[Stop]: ...
+
+    def __getitem__(self, i: int | slice) -> Stop | list[Stop]:
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        n = len(self)
+        if i < 0:
+            i += n
+        if not 0 <= i < n:
+            raise IndexError(f"stop {i} of {n}")
+        block, r = divmod(i, self._block)
+        t, o = self.targets, self.overrun
+        if self.kind == "linear":
+            j, m = block + 1, len(t)
+            if self.measured:
+                return Stop(t[r], r + 1, j, +1) if r < m else Stop(t[2 * m - 1 - r], 2 * m - r, j, -1)
+            if r == 0:
+                return Stop(t[0] - o, 0, j, +1)
+            if r <= m:
+                return Stop(t[r - 1], r, j, +1)
+            if r == m + 1:
+                return Stop(t[-1] + o, 0, j, -1)
+            return Stop(t[2 * m + 1 - r], 2 * m + 2 - r, j, -1)
+        p, k = t[block], block + 1
+        if self.measured:
+            j, up = divmod(r, 2)
+            return Stop(p, k, j + 1, -1 if up else +1)
+        j, q = divmod(r, 4)
+        return (Stop(p - o, 0, j + 1, +1), Stop(p, k, j + 1, +1), Stop(p + o, 0, j + 1, -1), Stop(p, k, j + 1, -1))[q]
+
+    def __eq__(self, other: object) -> bool:
+        return list(self) == list(other) if isinstance(other, Sequence) else NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]
 
 
-def step_cycle(targets: tuple[float, ...], runs: int, overrun: float) -> list[Stop]:
-    """The step cycle (ISO 230-2 Annex B): at each target all up and down approaches before moving on."""
-    _check(targets, runs, overrun)
-    stops: list[Stop] = []
-    for i, p in enumerate(targets, start=1):
-        for j in range(1, runs + 1):
-            stops += [Stop(p - overrun, 0, j, +1), Stop(p, i, j, +1),
-                      Stop(p + overrun, 0, j, -1), Stop(p, i, j, -1)]
-    return stops
+def linear_cycle(targets: tuple[float, ...], runs: int, overrun: float) -> Cycle:
+    """The standard test cycle (:class:`Cycle`)."""
+    return Cycle("linear", targets, runs, overrun)
 
 
-def cycle(kind: str, targets: tuple[float, ...], runs: int, overrun: float) -> list[Stop]:
-    if kind == "linear":
-        return linear_cycle(targets, runs, overrun)
-    if kind == "step":
-        return step_cycle(targets, runs, overrun)
-    raise SetupError(f"unknown cycle {kind!r}; use one of {', '.join(CYCLES)}")
+def step_cycle(targets: tuple[float, ...], runs: int, overrun: float) -> Cycle:
+    """The step cycle, ISO 230-2 Annex B (:class:`Cycle`)."""
+    return Cycle("step", targets, runs, overrun)
+
+
+def cycle(kind: str, targets: tuple[float, ...], runs: int, overrun: float, *, measured: bool = False) -> Cycle:
+    """The stops of the ``kind`` cycle (``measured``: only those where a point is captured)."""
+    return Cycle(kind, targets, runs, overrun, measured=measured)
 
 
 def _check(targets: tuple[float, ...], runs: int, overrun: float) -> None:

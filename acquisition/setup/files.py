@@ -7,14 +7,18 @@ loader's; :func:`setup_toml_text` writes the structure as a set-up file.
 
 from __future__ import annotations
 
+import copy
 import math
-from typing import Any
+import re
+from typing import TYPE_CHECKING, Any
 
 from saved_runs.errors import SetupError
 from saved_runs.toml_file import toml_string
 
-from .positioning import PositioningSetup, positioning_setup_from_dict
 from .straightness import StraightnessSetup, straightness_setup_from_dict
+
+if TYPE_CHECKING:
+    from .positioning import PositioningSetup
 
 KINDS = ("straightness", "positioning")
 
@@ -31,7 +35,70 @@ def setup_from_dict(data: dict[str, Any], source: str = "setup") -> Straightness
     """Validate ``data`` with the loader of its kind (the checks of ``guideway acquire``)."""
     if setup_kind(data) == "straightness":
         return straightness_setup_from_dict(data, source)
+    from .positioning import positioning_setup_from_dict  # (pandas: a straightness set-up is checked without it)
+
     return positioning_setup_from_dict(data, source)
+
+
+# Names some messages use for a key of a table (the run.json name of a set-up key).
+KEY_ALIASES = {"block_length_mm": ("block", "length_mm"), "stations": ("block", "stations"),
+               "samples_per_reading": ("block", "samples_per_reading")}
+# A valid value for a required key, put in its place once its own problem is listed, so that the
+# loader goes on to the problems after it.
+STAND_INS = {("block", "length_mm"): 100.0, ("block", "stations"): 2,
+             ("geometry", "mirror_mm"): [50.0, 110.0, 0.0], ("geometry", "sensor_mm"): [150.0, 0.0, 40.0],
+             ("axis", "end_mm"): 1000.0, ("axis", "end_deg"): 360.0}
+
+
+def _key_of(message: str, data: dict[str, Any]) -> tuple[str | None, str] | None:
+    """The (table, key) of ``data`` a loader message names (table None: top level), or None."""
+    if m := re.search(r"unknown key '([^']+)' in (?:\[([\w-]+)\]|top level)", message):
+        return m.group(2), m.group(1)
+    for m in re.finditer(r"\[([\w-]+)\] (\w+)", message):
+        table, key = m.group(1), m.group(2)
+        if isinstance(data.get(table), dict):
+            if key in data[table]:
+                return table, key
+            if key == "targets":  # "[axis] targets: ..." names the list of the axis's unit
+                return next(((table, k) for k in data[table] if k.startswith("targets_")), None)
+    for name, (table, key) in KEY_ALIASES.items():
+        if re.search(rf"(?<![\w\]] ){name}\b", message) and key in (data.get(table) or {}):
+            return table, key
+    first = re.match(r"(\w+)\b", message)
+    if first and first.group(1) in data and not isinstance(data[first.group(1)], dict):
+        return None, first.group(1)
+    return None
+
+
+def setup_problems(data: dict[str, Any], source: str = "setup", limit: int = 40) -> list[str]:
+    """Every problem of a set-up structure the loader finds, not only the first (the TUI lists them
+    all; ``guideway acquire`` stops at the first, one line).
+
+    The loader is run again with the key each message names taken out (a required key replaced by
+    a valid stand-in), until it takes the set-up, names no key it can take out, or repeats itself.
+    """
+    work = copy.deepcopy(data)
+    problems: list[str] = []
+    taken: set[tuple[str | None, str]] = set()
+    for _ in range(limit):
+        try:
+            setup_from_dict(work, source)
+            break
+        except SetupError as exc:
+            message = str(exc)
+        if message in problems:
+            break
+        problems.append(message)
+        where = _key_of(message, work)
+        table = work if where is None or where[0] is None else work.get(where[0])
+        if where is None or where in taken or not isinstance(table, dict):
+            break
+        taken.add(where)
+        if where in STAND_INS:  # a required key: a valid value in its place, so the loader goes on
+            table[where[1]] = STAND_INS[where]  # type: ignore[index]
+        else:
+            del table[where[1]]
+    return problems
 
 
 def _value(v: Any, where: str) -> str:

@@ -14,7 +14,8 @@ from saved_runs.errors import SetupError
 from saved_runs.evaluation.tolerance import positioning_tolerance
 from saved_runs.toml_file import TomlTable, naming_source, read_toml
 
-from .cycles import CYCLES, Stop, check_targets, cycle, linear_targets, rotary_targets
+from .cycles import CYCLES, Cycle, check_targets, cycle, linear_targets, rotary_targets
+from .maxima import check_size
 from .shared_tables import DeviceSetup, catalog_table, check_devices, controller_timing_keys, scenario_path
 
 TRIGGERS = ("in-position", "stability", "manual")
@@ -126,6 +127,10 @@ class PositioningSetup:
             raise SetupError(f"[gcode] dialect must be one of {', '.join(DIALECTS)}, got {self.dialect!r}")
         if not (math.isfinite(self.feed_per_min) and self.feed_per_min > 0):
             raise SetupError(f"[axis] feed must be positive, got {self.feed_per_min}")
+        check_size("targets", len(self.targets), "[axis]")  # sizes before the cycle is looked at
+        check_size("runs", self.runs, "[axis]")
+        if self.axis_type == "linear" and self.targets:
+            check_size("travel_mm", max(self.targets) - min(self.targets), "[axis] targets span:")
         try:
             self.stops()  # validates targets, runs and overrun
         except SetupError as exc:  # the cycle's own words name its arguments; the set-up's keys live in [axis]
@@ -163,12 +168,13 @@ class PositioningSetup:
     def unit(self) -> str:
         return "deg" if self.axis_type == "rotary" else "mm"
 
-    def stops(self) -> list[Stop]:
+    def stops(self) -> Cycle:
+        """Every stop of the cycle, overruns included (computed when asked for, never a list)."""
         return cycle(self.cycle, self.targets, self.runs, self.overrun)
 
-    def measured_stops(self) -> list[Stop]:
+    def measured_stops(self) -> Cycle:
         """The stops where a point is captured, in the order the cycle reaches them."""
-        return [s for s in self.stops() if s.target_index]
+        return cycle(self.cycle, self.targets, self.runs, self.overrun, measured=True)
 
     def to_run_setup(self) -> dict[str, Any]:
         """run.json ``setup`` of a positioning run (docs/run-format.md, version 2)."""
@@ -221,6 +227,11 @@ def _positioning_setup(data: dict[str, Any], source: str) -> PositioningSetup:
     start = ax.get(f"start_{u}", float, 0.0)
     end = ax.get(f"end_{u}", float, 360.0 if axis_type == "rotary" else None)
     long_axis = False
+    # sizes first, before targets are generated or a cycle is looked at (acquisition/setup/maxima.py)
+    if explicit is not None:
+        check_size("targets", len(explicit), f"[axis] targets_{u}:")
+    elif end is not None and axis_type == "linear" and math.isfinite(end - start):
+        check_size("travel_mm", abs(end - start), f"[axis] end_{u} - start_{u}:")
     if explicit is not None:
         if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in explicit):
             raise SetupError(f"{source}: [axis] targets_{u} must be a list of numbers")
@@ -228,7 +239,9 @@ def _positioning_setup(data: dict[str, Any], source: str) -> PositioningSetup:
     elif end is None:
         raise SetupError(f"{source}: [axis] give end_{u} (targets are generated per ISO 230-2) or targets_{u}")
     elif axis_type == "rotary":
-        targets = rotary_targets(start, end, seed=seed, per_rev=ax.get("targets_per_rev", int, 8))
+        per_rev = ax.get("targets_per_rev", int, 8)
+        check_size("targets_per_rev", per_rev, "[axis]")
+        targets = rotary_targets(start, end, seed=seed, per_rev=per_rev)
     else:
         targets = linear_targets(start, end, seed=seed)
         long_axis = end - start > LONG_AXIS_MM

@@ -8,9 +8,10 @@ the table and the key.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, overload
 
 from processing.geometry import BlockGeometry, DatumAngles
 from saved_runs.errors import SetupError
@@ -18,6 +19,7 @@ from saved_runs.evaluation.limits import ValidationSetup
 from saved_runs.evaluation.tolerance import straightness_tolerance
 from saved_runs.toml_file import TomlTable, naming_source, read_toml
 
+from .maxima import check_size
 from .shared_tables import DeviceSetup, catalog_table, check_devices, controller_timing_keys, scenario_path
 
 UNCERTAINTY_KEYS = ("sensor_noise_um", "sensor_resolution_um", "straightness_um", "angle_urad",
@@ -38,6 +40,7 @@ class WarmupSetup:
     timeout_s: float = 1800.0
 
     def __post_init__(self) -> None:
+        check_size("window", self.window, "[warmup]")
         if self.window < 2:
             raise SetupError(f"[warmup] window must be at least 2 readings, got {self.window}")
         for name in ("interval_s", "max_drift_ifm_um", "max_drift_sensor_um", "timeout_s"):
@@ -69,6 +72,54 @@ class HandsFreeSetup:
                              f"({self.still_s:g} s): stillness needs at least three readings")
 
 
+class Steps(Sequence[tuple[int, int]]):
+    """The (pass, station) steps of a run, each computed from its index: forward 0..n-1, then with
+    a return pass n-1..0.  Holds two numbers whatever the station count."""
+
+    def __init__(self, stations: int, return_pass: bool) -> None:
+        self.stations, self.return_pass = stations, return_pass
+
+    def __len__(self) -> int:
+        return self.stations * (2 if self.return_pass else 1)
+
+    @overload
+    def __getitem__(self, i: int) -> tuple[int, int]: ...
+    @overload
+    def __getitem__(self, i: slice) -> list[tuple[int, int]]: ...
+
+    def __getitem__(self, i: int | slice) -> tuple[int, int] | list[tuple[int, int]]:
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        n = len(self)
+        if i < 0:
+            i += n
+        if not 0 <= i < n:
+            raise IndexError(f"step {i} of {n}")
+        return (0, i) if i < self.stations else (1, 2 * self.stations - 1 - i)
+
+    def index(self, step: Any, start: int = 0, stop: int | None = None) -> int:
+        """Position of ``(pass, station)`` in the order (ValueError if the run has no such step)."""
+        p, k = step
+        if not (0 <= k < self.stations and (p == 0 or (p == 1 and self.return_pass))):
+            raise ValueError(f"{step!r} is not a step of this run")
+        i = k if p == 0 else 2 * self.stations - 1 - k
+        if i < start or (stop is not None and i >= stop):
+            raise ValueError(f"{step!r} is not between steps {start} and {stop}")
+        return i
+
+    def __contains__(self, step: object) -> bool:
+        try:
+            self.index(step)
+        except (ValueError, TypeError):
+            return False
+        return True
+
+    def __eq__(self, other: object) -> bool:
+        return list(self) == list(other) if isinstance(other, Sequence) else NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]
+
+
 @dataclass(frozen=True)
 class StraightnessSetup:
     """Everything a straightness run needs before it starts."""
@@ -93,6 +144,9 @@ class StraightnessSetup:
     def __post_init__(self) -> None:
         if not (math.isfinite(self.block_length_mm) and self.block_length_mm > 0):
             raise SetupError(f"block_length_mm must be a positive length, got {self.block_length_mm}")
+        check_size("length_mm", self.block_length_mm, "[block]")
+        check_size("stations", self.stations, "[block]")
+        check_size("samples_per_reading", self.samples_per_reading, "[block]")
         if self.stations < 2:
             raise SetupError(f"stations must be at least 2 (datum + one step), got {self.stations}")
         if self.samples_per_reading < 1:
@@ -107,11 +161,10 @@ class StraightnessSetup:
         """Nominal block position of station k: k times the block length."""
         return k * self.block_length_mm
 
-    def steps(self) -> list[tuple[int, int]]:
-        """The (pass, station) steps in order: forward 0..n-1, then (return pass) n-1..0."""
-        fwd = [(0, k) for k in range(self.stations)]
-        back = [(1, k) for k in range(self.stations - 1, -1, -1)] if self.return_pass else []
-        return fwd + back
+    def steps(self) -> Steps:
+        """The (pass, station) steps in order: forward 0..n-1, then (return pass) n-1..0 (computed
+        when asked for, never a list)."""
+        return Steps(self.stations, self.return_pass)
 
     def to_run_setup(self) -> dict[str, Any]:
         """run.json ``setup`` object (run format version 2)."""
@@ -156,12 +209,18 @@ def _straightness_setup(data: dict[str, Any], source: str) -> StraightnessSetup:
     travel = blk.get("travel_length_mm", float, None)
     if (stations is None) == (travel is None):
         raise SetupError(f"{source}: [block] give exactly one of stations or travel_length_mm")
+    if stations is not None:  # sizes first, before anything is built from them (acquisition/setup/maxima.py)
+        check_size("stations", stations, "[block]")
     if travel is not None:
         if not (math.isfinite(travel) and travel > 0 and length > 0):
             raise SetupError(f"{source}: [block] travel_length_mm must be a positive length, got {travel}")
+        check_size("travel_length_mm", travel, "[block]")
         # Whole steps that fit in the travel, plus the datum station (1e-9: 1000/100 is exactly 10 steps).
-        stations = int(math.floor(travel / length + 1e-9)) + 1
+        steps = math.floor(travel / length + 1e-9) if math.isfinite(travel / length) else math.inf
+        check_size("stations", steps + 1, f"[block] travel_length_mm / length_mm gives {steps + 1:g} stations:")
+        stations = int(steps) + 1
     samples = blk.get("samples_per_reading", int, 5)
+    check_size("samples_per_reading", samples, "[block]")
     return_pass = blk.get("return_pass", bool, False)
 
     geo = top.table("geometry")

@@ -81,6 +81,9 @@ def test_a_loader_message_naming_a_table_keeps_its_brackets() -> None:
     except Exception as exc:  # noqa: BLE001 - the loader's own message is the expected text
         expected = str(exc).removeprefix("set-up: ")
     assert expected.startswith("[axis] give end_mm")
+    # on the form, in its words: the keys become the labels of their fields, the rest stays as it is
+    expected = expected.replace("end_mm", "end (mm)").replace("targets_mm", "targets (mm)")
+    assert expected.startswith("[axis] give end (mm)")
 
     async def main() -> str:
         app = GuidewayApp(setup_source=source, runs_dir=ROOT / RUNS, start="setup")
@@ -188,7 +191,8 @@ def test_runs_screen_shows_every_column_in_80_columns(tmp_path: Path) -> None:
     assert content_w <= table_w == 80  # nothing hidden to the right
     row = next(i for i, ln in enumerate(lines) if "positioning-20261125T134921Z" in ln)
     two = lines[row] + " " + lines[row + 1]
-    for value in ("positioning", meta["status"], str(meta["points"]), meta["machine"], meta["axis"],
+    planned = len(meta["setup"]["targets_mm"]) * meta["setup"]["runs"] * 2  # every target, both directions
+    for value in ("positioning", meta["status"], f"{meta['points']}/{planned}", meta["machine"], meta["axis"],
                   meta["created"].replace("T", " ").removesuffix("Z")):
         assert f" {value} " in two, value
 

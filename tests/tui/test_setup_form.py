@@ -87,7 +87,7 @@ def test_rotary_form_has_no_air_compensation_fields() -> None:
 def test_environment_fields_typed_into_the_form_are_saved_and_used(tmp_path: Path) -> None:
     import asyncio
 
-    from textual.widgets import Input, Select
+    from textual.widgets import Input
 
     from tests.tui.sessions import POSITIONING
     from tests.waiting import wait_for_app
@@ -96,13 +96,13 @@ def test_environment_fields_typed_into_the_form_are_saved_and_used(tmp_path: Pat
     path = tmp_path / "aluminium.toml"
 
     async def main() -> None:
-        app = GuidewayApp(setup_source=POSITIONING, start="setup", runs_dir=tmp_path)
+        app = GuidewayApp(setup_source=POSITIONING, start="setup", runs_dir=tmp_path, simulate=True)
         async with app.run_test(size=(160, 48)) as pilot:
             await wait_for_app(pilot, lambda: getattr(app.screen, "ready", False), what="the set-up form")
             app.screen.query_one("#setup-file", Input).value = str(path)
             app.screen.query_one("#f-environment-expansion_ppm_per_k", Input).value = "23.1"
             app.screen.query_one("#f-environment-abbe_offset_mm", Input).value = "12, -4"
-            app.screen.query_one("#f-environment-index_equation", Select).value = "edlen"
+            app.screen.query_one("#f-environment-index_equation").value = "edlen"
             await pilot.pause()
             assert app.screen.check(), app.screen.problem
             app.screen.query_one("#f-environment-refractive_index_assumed", Input).value = "2"

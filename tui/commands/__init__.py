@@ -8,6 +8,8 @@ Handlers import what they need lazily, so ``guideway --help`` stays fast.
 from __future__ import annotations
 
 import argparse
+import math
+from collections.abc import Callable
 from importlib import import_module
 
 # Order = order in ``guideway --help``.
@@ -54,3 +56,29 @@ def seed(text: str) -> int:
     if value < 0:
         raise argparse.ArgumentTypeError(f"a seed is a whole number >= 0, got {text!r}")
     return value
+
+
+def sized(name: str, least: int) -> Callable[[str], int]:
+    """An option's type: a whole number from ``least`` to the documented maximum of the size ``name``
+    (acquisition/setup/maxima.py), checked before anything is allocated; ``1e12`` is read as the
+    number it is, so the message says it is too large rather than not a number."""
+    from acquisition.setup.maxima import MAXIMA, size_problem
+
+    def parse(text: str) -> int:
+        try:
+            value = float(text) if not text.strip().lstrip("+-").isdigit() else int(text)
+        except ValueError:
+            value = math.nan
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"a whole number is needed, got {text!r}")
+        if value < least:
+            raise argparse.ArgumentTypeError(f"at least {least}, got {text}")
+        if (problem := size_problem(name, value)) is not None:
+            raise argparse.ArgumentTypeError(problem)
+        if value != int(value):
+            raise argparse.ArgumentTypeError(f"a whole number is needed, got {text!r}")
+        return int(value)
+
+    parse.__name__ = name  # argparse names the type in its message
+    assert name in MAXIMA
+    return parse

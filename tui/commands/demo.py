@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from . import seed as seed_arg
+from . import sized
 
 
 def run(args: argparse.Namespace) -> int:
@@ -20,9 +21,11 @@ def run(args: argparse.Namespace) -> int:
 def register(sub) -> None:  # noqa: ANN001
     d = sub.add_parser("demo", help="complete simulated gauge-block straightness run")
     d.add_argument("--out", type=Path, default=None, help="new run directory (default runs/demo-<UTC time>)")
-    d.add_argument("--stations", type=int, default=20, help="stations including the datum (default 20)")
+    d.add_argument("--stations", type=sized("stations", 2), default=20,
+                   help="stations including the datum (default 20, at most 100000)")
     d.add_argument("--seed", type=seed_arg, default=0, help="seed of the simulated world (default 0)")
-    d.add_argument("--samples", type=int, default=5, help="sensor samples averaged per station (default 5)")
+    d.add_argument("--samples", type=sized("samples_per_reading", 1), default=5,
+                   help="sensor samples averaged per station (default 5, at most 10000)")
     d.add_argument("--sensor", default="keyence-lkg", metavar="PROTOCOL",
                    help="simulated sensor family: keyence-lkg (default), panasonic-hlg1 or me-ild1420")
     d.add_argument("--no-noise", action="store_true", help="switch the simulated instrument noise off")
