@@ -35,8 +35,9 @@ import numpy as np
 from scipy import stats
 
 from ..effects import Effect
-from . import basis
-from .fit import Fit, FoldFits, bic, cv_rmse, fit_model, fold_fits, free_wavelength, wavelength_grid
+from . import basis, serial
+from .fit import (Fit, FoldFits, bic, cv_rmse, fit_model, fold_fits, free_wavelength, orthonormal_basis, solve,
+                  wavelength_grid)
 from .observations import Observations
 
 
@@ -216,6 +217,7 @@ class CandidateTest:
     cv_after_um: float | None
     significant: bool
     look_elsewhere: float = 1.0
+    ar1_phi: float = 0.0  # the AR(1) coefficient of the errors in time order the tests were whitened for
 
     @property
     def label(self) -> str:
@@ -226,7 +228,7 @@ class CandidateTest:
                 "p_threshold": self.p_threshold, "parameters_added": self.added,
                 "wavelengths_scanned": self.look_elsewhere if self.look_elsewhere != 1.0 else None,
                 "cv_rmse_before_um": self.cv_before_um, "cv_rmse_after_um": self.cv_after_um,
-                "significant": self.significant}
+                "ar1_phi": self.ar1_phi, "significant": self.significant}
 
 
 def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int, rule: Rule,
@@ -243,8 +245,9 @@ def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int,
     if added <= 0 or dof <= 0:
         return None
     n = obs.n
-    dbic = bic(fit.rss, n, fit.n_params) - bic(current.rss, n, current.n_params)
-    f_stat = ((current.rss - fit.rss) / added_total) / (fit.rss / dof) if fit.rss > 0 else math.inf
+    phi, rss0, rss1 = whitened_rss(obs, current, fit)
+    dbic = bic(rss1, n, fit.n_params) - bic(rss0, n, current.n_params)
+    f_stat = ((rss0 - rss1) / added_total) / (rss1 / dof) if rss1 > 0 else math.inf
     p = float(stats.f.sf(f_stat, added_total, dof))
     m_eff = 1.0
     if free_wavelength(cand):
@@ -256,7 +259,22 @@ def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int,
     significant = (p < threshold and dbic <= -rule.bic_margin and current.rms_um > rule.resolution_um
                    and (cv_before is None or cv_after is None or cv_after < cv_before))
     return CandidateTest(fit.effects[-1], fit, added_total, dbic, f_stat, p, threshold, cv_before, cv_after,
-                         significant, m_eff)
+                         significant, m_eff, phi)
+
+
+def whitened_rss(obs: Observations, smaller: Fit, larger: Fit) -> tuple[float, float, float]:
+    """(φ, RSS of ``smaller``, RSS of ``larger``) after the Prais–Winsten transform for AR(1) errors in
+    time order (serial.py), φ estimated from the larger model's residual (it holds under both hypotheses:
+    an effect missing from the smaller model would pass for correlation in its residual); φ = 0: the
+    ordinary sums.  Both models are fitted to the same observations, so the nested comparison (F-test,
+    BIC) is the generalised least-squares one."""
+    order = serial.time_order(obs.values, obs.n)
+    phi = serial.ar1_coefficient(larger.residual[order], orthonormal_basis(larger.design)[order])
+    if phi == 0.0:
+        return 0.0, smaller.rss, larger.rss
+    rss = [solve(serial.prais_winsten(f.design, order, phi), serial.prais_winsten(f.target, order, phi))[1]
+           for f in (smaller, larger)]
+    return phi, rss[0], rss[1]
 
 
 # -- the loop ---------------------------------------------------------------------------------------------------
