@@ -18,7 +18,7 @@ would give at α = 0.05, which the bound says is at most 0.05.
 ``--ar1`` measures the rule under serially correlated noise instead: the positioning null runs
 simulated without noise, then AR(1) noise added in time order (e_t = φ e_{t−1} + w_t, marginal σ
 ``--sigma-um``, 0.2 µm) at φ = 0.7 and 0.9 (``--phi``): the false-alarm rate, and the rate at which a
-single hidden effect (``--effect``, thermal_drift) of 5 standard errors is named, the standard error
+single hidden effect (``--effect``, thermal_drift) of 5 standard errors (``--se``) is named, the standard error
 being that of the generalised least-squares estimate under the true noise covariance, computed here:
 SE² = [(Xᵀ Σ⁻¹ X)⁻¹]_kk, X = [1, the effect's column], Σ_ij = σ² φ^|i−j| in time order.
 
@@ -133,7 +133,7 @@ def gls_standard_error(column: np.ndarray, order: np.ndarray, phi: float, sigma_
     return float(math.sqrt(np.linalg.inv(info)[1, 1]))
 
 
-def count_ar1(phi: float, seeds: int, sigma_um: float, effect: str, tmp: Path) -> None:
+def count_ar1(phi: float, seeds: int, sigma_um: float, effect: str, tmp: Path, n_se: float = 5.0) -> None:
     sc = scenario_from_dict(POSITIONING, "ar1")
     alarms, found, examples = 0, 0, []
     name, unit = UNIT_EFFECTS[effect]
@@ -150,7 +150,7 @@ def count_ar1(phi: float, seeds: int, sigma_um: float, effect: str, tmp: Path) -
             pts = pd.read_csv(out / "points.csv")
             t = (pts["time_s"].to_numpy() - pts["time_s"].min()) / 60.0
             order = np.argsort(t, kind="stable")
-            size = 5.0 * gls_standard_error(unit(pts["target_mm"].to_numpy(), t), order, phi, sigma_um)
+            size = n_se * gls_standard_error(unit(pts["target_mm"].to_numpy(), t), order, phi, sigma_um)
         hidden = scenario_from_dict({**POSITIONING, "effect": [{"type": effect, name: size}]}, "ar1 effect")
         out = tmp / f"ar1_{phi}_{seed}_effect"
         simulate_run(hidden, out, seed=30_000 + seed, noise=False)
@@ -160,7 +160,7 @@ def count_ar1(phi: float, seeds: int, sigma_um: float, effect: str, tmp: Path) -
     print(f"AR(1) phi {phi}, marginal sigma {sigma_um} um: {alarms} false alarm(s) in {seeds} null runs, "
           f"rate {alarms / seeds:.3f} (95 % interval {lo:.3f} … {hi:.3f})" + (f"; e.g. {examples[:3]}" if examples else ""))
     lo, hi = clopper_pearson(found, seeds)
-    print(f"  {effect} at 5 GLS standard errors ({name} = {size:.4g}): named in {found} of {seeds} runs, "
+    print(f"  {effect} at {n_se:g} GLS standard errors ({name} = {size:.4g}): named in {found} of {seeds} runs, "
           f"rate {found / seeds:.3f} (95 % interval {lo:.3f} … {hi:.3f})")
 
 
@@ -172,11 +172,12 @@ def main() -> int:
     ap.add_argument("--phi", type=float, nargs="+", default=[0.7, 0.9])
     ap.add_argument("--sigma-um", type=float, default=0.2)
     ap.add_argument("--effect", choices=sorted(UNIT_EFFECTS), default="thermal_drift")
+    ap.add_argument("--se", type=float, default=5.0, help="size of the hidden effect in standard errors")
     args = ap.parse_args()
     if args.ar1:
         with tempfile.TemporaryDirectory() as tmp:
             for phi in args.phi:
-                count_ar1(phi, args.seeds, args.sigma_um, args.effect, Path(tmp))
+                count_ar1(phi, args.seeds, args.sigma_um, args.effect, Path(tmp), args.se)
         return 0
     with tempfile.TemporaryDirectory() as tmp:
         if args.only in (None, "positioning"):

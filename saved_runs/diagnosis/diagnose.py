@@ -82,7 +82,9 @@ class Diagnosis:
             "baseline": _summary(p.baseline),
             "steps": steps,
             "final": {**_summary(p.final),
-                      "model": [{**effect.to_dict(), "se": _clean(se), "channel": ch}
+                      # the effect as a model file states it (an Abbe effect's own channel: pitch or yaw), and
+                      # the observed channel it acts on in its own key
+                      "model": [{**effect.to_dict(), "se": _clean(se), "diagnosis_channel": ch}
                                 for effect, se, ch in self.final_effects()]},
             "named": self.named,
             "ambiguous": self.ambiguous,
@@ -90,7 +92,7 @@ class Diagnosis:
             "noise": {"source": p.noise.source, "dof": p.noise.dof, "baseline_um": p.baseline_noise.sigma_um},
             "disagreement": p.disagreement,
             "not_testable": {k: v for ch in self.channels for k, v in ch.not_testable.items()},
-            "candidates": [{"effect": t.effect.label, **t.evidence()} for t in p.last_round],
+            "candidates": [{"effect": t.effect.type, "label": t.effect.label, **t.evidence()} for t in p.last_round],
             "rule": p.rule.to_dict(),
             "notes": list(self.notes),
             "channels": {ch.obs.channel: {"points": ch.obs.n, "baseline": _summary(ch.baseline),

@@ -73,8 +73,9 @@ def effect_um(kind: str, q: dict, rows: list[dict], pitch: np.ndarray, yaw: np.n
 
 
 def write_run(path: Path, rows: list[dict], effects: list[tuple[str, dict]], *, seed: int,
-              pitch_fn=None, temp_c=None, pressure_pa=None, targets=TARGETS_MM) -> Path:
-    """A compensated positioning run directory (run.json + points.csv, docs/run-format.md)."""
+              pitch_fn=None, temp_c=None, pressure_pa=None, targets=TARGETS_MM, noise_um=None) -> Path:
+    """A compensated positioning run directory (run.json + points.csv, docs/run-format.md); ``noise_um``:
+    the reading noise of every row (µm), instead of independent Gaussian noise of σ = SIGMA_UM."""
     rng = np.random.default_rng(seed)
     n = len(rows)
     P = np.array([r["target_mm"] for r in rows])
@@ -87,6 +88,8 @@ def write_run(path: Path, rows: list[dict], effects: list[tuple[str, dict]], *, 
     # index change from the first point: (n - 1) proportional to the pressure at 20 C, 50 %RH (ideal gas)
     dn = (N_REF - 1) * (pres - pres[0]) / P_REF_PA
     dev = rng.normal(0, SIGMA_UM, n)
+    if noise_um is not None:
+        dev = np.array(noise_um, dtype=float)
     for kind, q in effects:
         dev += effect_um(kind, q, rows, pitch_true, yaw, dn)
     path.mkdir()
