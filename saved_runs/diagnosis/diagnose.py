@@ -231,7 +231,8 @@ def _straightness(run: LoadedRun, reference: bool) -> tuple[Observations, Observ
         raise RunFormatError(f"{run.path}: {exc}") from None
     per_point = decouple(run.points, geometry, "exact")
     sensor = sensor_height_um(run.points["sensor_mm"].to_numpy(dtype=float), geometry.sensor_sign)
-    return straightness_observations(run.points, per_point, sensor, reference=reference)
+    q_side = 1.0 if geometry.sensor_mm[0] >= geometry.mirror_mm[0] else -1.0
+    return straightness_observations(run.points, per_point, sensor, reference=reference, q_side=q_side)
 
 
 def diagnose_run(run_dir: Path | str, model: EffectModel | Path | str | None = None,

@@ -81,3 +81,40 @@ def test_json_keeps_the_effects_own_channel_and_labels_the_candidates(tmp_path: 
     assert abbe["channel"] == "pitch" and abbe["diagnosis_channel"] == "deviation"
     labels = {c["label"]: c["effect"] for c in d["candidates"]}
     assert labels["abbe(yaw)"] == "abbe" and labels["linear_scale"] == "linear_scale"
+
+
+# -- 6. lever_arm in both geometries ----------------------------------------------------------------------------
+BEHIND = {"mirror_mm": [50.0, 110.0, 0.0], "sensor_mm": [-50.0, 0.0, 40.0], "sensor_beam": [0.0, -1.0, 0.0],
+          "sensor_sign": "height"}
+
+
+def test_the_simulated_lever_arm_error_shortens_the_true_distance_on_either_side() -> None:
+    """error_mm is how much longer the recorded P–Q distance along X is than the true one: the simulated
+    block's true Q sits error_mm nearer P, ahead of P or behind it."""
+    from mocks.effects import straightness_parts
+    from mocks.world import BlockSetup, Guideway
+
+    for head_x in (150.0, -50.0):
+        recorded = BlockSetup(mirror_mm=(50.0, 110.0, 0.0), sensor_head_mm=(head_x, 30.0, 40.0))
+        true, _, _ = straightness_parts([("lever_arm", {"error_mm": 6.0})], recorded, Guideway())
+        assert abs(true.sensor_head_mm[0] - 50.0) == abs(head_x - 50.0) - 6.0
+
+
+def test_lever_arm_is_recovered_with_its_sign_ahead_of_and_behind_p(tmp_path: Path) -> None:
+    """The same +6 mm error hidden with the sensor ahead of P (xQ > xP) and behind it (xQ < xP): the
+    diagnosis reports +6 within 4 standard errors in both (issue 19: −6.1 behind P)."""
+    from tests.saved_runs.test_diagnose_straightness import REFERENCE, simulated, with_reference
+
+    for name, extra in (("ahead", {}), ("behind", {"geometry": BEHIND})):
+        run = simulated(tmp_path / name, [{"type": "lever_arm", "error_mm": 6.0}, REFERENCE], **extra)
+        d = diagnose_run_quiet(run, with_reference())
+        assert d.named == ["lever_arm"], (name, d.named, d.ambiguous)
+        (step,) = d.primary.steps
+        got, se = step.effect.params["error_mm"], step.fit.se[-1]["error_mm"]
+        assert abs(got - 6.0) <= 4 * se, (name, got, se)
+
+
+def diagnose_run_quiet(run: Path, model):
+    from saved_runs.diagnosis.diagnose import diagnose_run
+
+    return diagnose_run(run, model)
