@@ -158,7 +158,8 @@ def count_ar1(phi: float, seeds: int, sigma_um: float, effect: str, tmp: Path, n
         found += effect in diagnose_run(out).named
     lo, hi = clopper_pearson(alarms, seeds)
     print(f"AR(1) phi {phi}, marginal sigma {sigma_um} um: {alarms} false alarm(s) in {seeds} null runs, "
-          f"rate {alarms / seeds:.3f} (95 % interval {lo:.3f} … {hi:.3f})" + (f"; e.g. {examples[:3]}" if examples else ""))
+          f"rate {alarms / seeds:.3f} (95 % interval {lo:.3f} … {hi:.3f})"
+          + (f"; e.g. {examples[:3]}" if examples else ""))
     lo, hi = clopper_pearson(found, seeds)
     print(f"  {effect} at {n_se:g} GLS standard errors ({name} = {size:.4g}): named in {found} of {seeds} runs, "
           f"rate {found / seeds:.3f} (95 % interval {lo:.3f} … {hi:.3f})")

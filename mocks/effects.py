@@ -18,7 +18,8 @@ the first measured point; s = +1 / −1 approach direction; ε the axis' angular
 Straightness: the sensor reports (1 + ppm·1e-6) times the true height-sense value plus
 um_per_min · t (sensor_gain, sensor_drift); the true block is longer than recorded by
 um_per_block (block_length) and its sensor sits error_mm closer to P along X than recorded,
-whether it is ahead of P or behind it (lever_arm); a profile_table adds its heights to the surface (x from the first sample point).
+whether it is ahead of P or behind it (lever_arm); a profile_table adds its heights to the surface (x from
+the first sample point).
 """
 
 from __future__ import annotations

@@ -36,9 +36,20 @@ from scipy import stats
 
 from ..effects import Effect
 from . import basis, serial
-from .fit import (Fit, FoldFits, bic, cv_rmse, fit_model, fold_fits, free_wavelength, orthonormal_basis, solve,
-                  wavelength_grid)
+from .fit import (
+    Fit,
+    FoldFits,
+    bic,
+    cv_rmse,
+    fit_model,
+    fold_fits,
+    free_wavelength,
+    orthonormal_basis,
+    solve,
+    wavelength_grid,
+)
 from .observations import Observations
+from .plausible import implausible
 
 
 @dataclass(frozen=True)
@@ -290,6 +301,8 @@ class Step:
     # the effect tested again in the final model, the others in (what the backward pass keeps it on):
     # a step can be below the rule on its own when effects are significant only together
     in_final: CandidateTest | None = None
+    alternatives: tuple[Effect, ...] = ()  # the ambiguous candidates as fitted in its place
+    implausible: str = ""  # why its fitted value is physically implausible (then it is not named)
 
     @property
     def effect(self) -> Effect:
@@ -314,7 +327,7 @@ class ChannelDiagnosis:
 
     @property
     def named(self) -> list[str]:
-        return [s.test.effect.type for s in self.steps if not s.ambiguous_with]
+        return [s.test.effect.type for s in self.steps if not s.ambiguous_with and not s.implausible]
 
 
 def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect], rule: Rule | None = None
@@ -347,6 +360,7 @@ def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect]
         final = steps[-1].fit if steps else baseline
     ambiguous: list[tuple[str, ...]] = []
     alike_of: dict[int, tuple[str, ...]] = {}
+    alternatives: dict[int, tuple[Effect, ...]] = {}
     in_final: dict[int, CandidateTest] = {}
     for j, effect in enumerate(final.effects):
         if effect.free:
@@ -355,10 +369,12 @@ def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect]
                 in_final[j] = own
             if alike:
                 alike_of[j] = tuple(a.label for a in alike)
+                alternatives[j] = tuple(alike)
                 group = tuple(sorted({effect.type, *(a.type for a in alike)}))
                 if group not in ambiguous:
                     ambiguous.append(group)
-    told = [Step(s.test, s.fit, s.noise, s.tested, alike_of.get(len(model) + i, ()), in_final.get(len(model) + i))
+    told = [Step(s.test, s.fit, s.noise, s.tested, alike_of.get(len(model) + i, ()), in_final.get(len(model) + i),
+                 alternatives.get(len(model) + i, ()), implausible(final.effects[len(model) + i], obs))
             for i, s in enumerate(steps)]
     return ChannelDiagnosis(obs, model, baseline, base_noise, tuple(told), final, noise_estimate(obs, final),
                             regions, tuple(ambiguous), not_testable, last, rule)

@@ -31,7 +31,7 @@ from ..evaluation.positioning import positioning_deviations
 from ..evaluation.straightness import check_finite, run_geometry
 from ..store.files import write_text_atomic
 from ..store.reader import LoadedRun, load_run
-from .model_file import EffectModel, empty_model, load_model, model_toml
+from .model_file import EffectModel, commented_effect, empty_model, load_model, model_toml
 
 
 @dataclass(frozen=True)
@@ -73,7 +73,9 @@ class Diagnosis:
                               "params": _params(s.effect), "se": _clean(s.fit.se[-1]), "rms_um": s.fit.rms_um,
                               "max_um": s.fit.max_um, "noise_um": s.noise.sigma_um, "evidence": s.test.evidence(),
                               "evidence_in_final": s.in_final.evidence() if s.in_final else None,
-                              "ambiguous_with": list(s.ambiguous_with)})
+                              "ambiguous_with": list(s.ambiguous_with),
+                              "alternatives": [_params(a) | {"type": a.type} for a in s.alternatives],
+                              "implausible": s.implausible or None})
         out = {
             "kind": self.run.kind,
             "run": str(self.run.path),
@@ -117,6 +119,9 @@ class Diagnosis:
                           file=stream)
             for i, s in enumerate(ch.steps, start=1):
                 tag = f"ambiguous with {', '.join(s.ambiguous_with)} (not named)" if s.ambiguous_with else "named"
+                if s.implausible:
+                    tag = f"implausible: {s.implausible} (not named)" + (
+                        f"; ambiguous with {', '.join(s.ambiguous_with)}" if s.ambiguous_with else "")
                 together = ""
                 if not s.test.significant and s.in_final is not None:
                     together = (f"; significant only with the later steps: in the final model dBIC "
@@ -137,12 +142,25 @@ class Diagnosis:
 
     def model_file_text(self) -> str:
         """The final model as a model file (fitted values; the effects stay free so a later run refits them)."""
-        entries = []
-        added_effects = {id(e) for ch in self.channels for e in ch.final.effects[len(ch.model):]}
+        entries: list[tuple[Effect | None, str]] = []
+        steps = {id(ch.final.effects[len(ch.model) + i]): s for ch in self.channels for i, s in enumerate(ch.steps)}
         for effect, se, channel in self.final_effects():
-            added = id(effect) in added_effects
-            comment = (f"{'added by the diagnosis' if added else 'from the model'} ({channel} channel): "
+            step = steps.get(id(effect))
+            comment = (f"{'added by the diagnosis' if step else 'from the model'} ({channel} channel): "
                        f"{format_params(effect, se) if effect.free else 'fixed'}")
+            if step is not None and (step.ambiguous_with or step.implausible):
+                # not a finding: written as comments, the choice left to the user
+                why = []
+                if step.ambiguous_with:
+                    why.append(f"the run cannot tell it apart from {', '.join(step.ambiguous_with)}: neither is "
+                               "written; uncomment the one you know to be there (a designed experiment separates them)")
+                if step.implausible:
+                    why.append(f"implausible: {step.implausible}")
+                text = [comment, *why, *commented_effect(effect)]
+                for alt in step.alternatives:
+                    text += [f"or, in its place ({channel} channel):", *commented_effect(alt)]
+                entries.append((None, "\n".join(text)))
+                continue
             entries.append((effect, comment))
         header = [f"model of run {self.run.path} by guideway diagnose (docs/diagnosis.md)",
                   f"start model: {self.model.source}",
@@ -231,8 +249,8 @@ def _straightness(run: LoadedRun, reference: bool) -> tuple[Observations, Observ
         raise RunFormatError(f"{run.path}: {exc}") from None
     per_point = decouple(run.points, geometry, "exact")
     sensor = sensor_height_um(run.points["sensor_mm"].to_numpy(dtype=float), geometry.sensor_sign)
-    q_side = 1.0 if geometry.sensor_mm[0] >= geometry.mirror_mm[0] else -1.0
-    return straightness_observations(run.points, per_point, sensor, reference=reference, q_side=q_side)
+    return straightness_observations(run.points, per_point, sensor, reference=reference,
+                                     lever_x_mm=geometry.sensor_mm[0] - geometry.mirror_mm[0])
 
 
 def diagnose_run(run_dir: Path | str, model: EffectModel | Path | str | None = None,

@@ -101,7 +101,7 @@ def channel_sections(page: HtmlPage, ch: ChannelDiagnosis) -> None:
         ("cross-validation folds", o.fold_basis),
     ], digits=4)
     rows = [("model", "", ch.baseline.rms_um, ch.baseline.max_um, ch.baseline_noise.sigma_um)]
-    rows += [(f"+ {s.test.effect.label}", "ambiguous" if s.ambiguous_with else "named", s.fit.rms_um, s.fit.max_um,
+    rows += [(f"+ {s.test.effect.label}", _verdict(s), s.fit.rms_um, s.fit.max_um,
               s.noise.sigma_um) for s in ch.steps]
     page.table(("stage", "", "RMS (µm)", "max |r| (µm)", "noise (µm)"), rows, digits=4, text_columns=(0, 1))
     page.image(figure_png(gap_figure(ch)), "RMS and maximum residual after each added effect; dashed: the noise "
@@ -120,6 +120,8 @@ def channel_sections(page: HtmlPage, ch: ChannelDiagnosis) -> None:
     before = ch.baseline.residual
     for i, s in enumerate(ch.steps, start=1):
         verdict = f"ambiguous with {', '.join(s.ambiguous_with)}, not named" if s.ambiguous_with else "named"
+        if s.implausible:
+            verdict = f"implausible: {s.implausible}, not named"
         page.heading(f"Step {i}: + {s.test.effect.label} ({verdict})", 3)
         page.paragraph(f"{format_params(s.effect, s.fit.se[-1])} (± one standard error). RMS "
                        f"{_rms(before):.4f} → {s.fit.rms_um:.4f} µm, max {np.max(np.abs(before)):.4f} → "
@@ -177,3 +179,7 @@ def write_diagnosis_report(d: Diagnosis, path: Path | str) -> Path:
     except OSError as exc:
         raise UserError(f"cannot write the report to {path}: {exc.strerror or exc}") from None
     return path
+
+
+def _verdict(step: Any) -> str:
+    return "implausible" if step.implausible else "ambiguous" if step.ambiguous_with else "named"

@@ -15,8 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tests.saved_runs.test_diagnose_positioning import (TARGETS_MM, diagnose, linear_cycle, pitch_profile_urad,
-                                                        write_run)
+from tests.saved_runs.test_diagnose_positioning import TARGETS_MM, diagnose, linear_cycle, pitch_profile_urad, write_run
 
 SIGMA_UM = 0.2  # marginal σ of the AR(1) noise (µm)
 
@@ -118,3 +117,50 @@ def diagnose_run_quiet(run: Path, model):
     from saved_runs.diagnosis.diagnose import diagnose_run
 
     return diagnose_run(run, model)
+
+
+# -- 4. ambiguity in the written model ----------------------------------------------------------------------------
+def test_an_ambiguous_pair_is_written_as_comments_with_the_choice_left_to_the_user(tmp_path: Path) -> None:
+    """A dead path under air warming at a steady rate is a thermal drift (issue 19: ``--out`` kept one of them,
+    a dead path of −6831 mm, without saying so): the model file holds neither as an effect and both, with
+    their fitted values, as comments; read back, it is a valid model."""
+    import tomllib
+
+    from saved_runs.diagnosis.model_file import model_from_dict
+    from tests.saved_runs.test_diagnose_positioning import N_REF, P_REF_PA
+
+    rows = linear_cycle(TARGETS_MM, 5)
+    ramp = lambda t: P_REF_PA * (1 - 0.95e-6 * 2.0 * t / 3600 / (N_REF - 1))  # noqa: E731
+    d = diagnose(write_run(tmp_path / "run", rows, [("dead_path", {"length_mm": 2000.0})], seed=8, pressure_pa=ramp))
+    assert d.ambiguous == [["dead_path", "thermal_drift"]]
+    text = d.model_file_text()
+    written = model_from_dict(tomllib.loads(text), "written")
+    assert [e.type for e in written.effects] == []
+    commented = [line for line in text.splitlines() if line.startswith("# type = ")]
+    assert sorted(commented) == ['# type = "dead_path"', '# type = "thermal_drift"']
+    assert "cannot tell it apart" in text
+
+
+# -- 5. plausibility ----------------------------------------------------------------------------------------------------
+def test_a_negative_dead_path_is_implausible_not_named(tmp_path: Path) -> None:
+    """An index change times a negative length fits, but no dead path is shorter than nothing: flagged."""
+    from tests.saved_runs.test_diagnose_positioning import pressure_cycle
+
+    rows = linear_cycle(TARGETS_MM, 5)
+    d = diagnose(write_run(tmp_path / "run", rows, [("dead_path", {"length_mm": -1500.0})], seed=3,
+                           pressure_pa=pressure_cycle))
+    assert d.named == []
+    (step,) = d.primary.steps
+    assert step.test.effect.type == "dead_path" and "negative dead path" in step.implausible
+    assert d.to_dict()["steps"][0]["implausible"] == step.implausible
+    assert "# type = \"dead_path\"" in d.model_file_text()  # written as a comment, not as an effect
+
+
+def test_a_sensor_gain_of_twenty_percent_is_implausible_not_named(tmp_path: Path) -> None:
+    from saved_runs.diagnosis.diagnose import diagnose_run
+    from tests.saved_runs.test_diagnose_straightness import REFERENCE, simulated, with_reference
+
+    d = diagnose_run(simulated(tmp_path, [{"type": "sensor_gain", "ppm": 2.0e5}, REFERENCE]), with_reference())
+    assert d.named == []
+    (step,) = d.primary.steps
+    assert step.test.effect.type == "sensor_gain" and "sensor gain error of +" in step.implausible
