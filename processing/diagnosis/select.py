@@ -48,7 +48,7 @@ from .fit import (
     solve,
     wavelength_grid,
 )
-from .observations import Observations
+from .observations import Observations, fold_ids, group_ids
 from .plausible import implausible
 
 
@@ -64,6 +64,9 @@ class Rule:
     # a residual RMS below this holds nothing to diagnose: no interferometer resolves 0.1 nm, and the
     # rounding of a noise-free simulation (--no-noise) would otherwise pass every test
     resolution_um: float = 1e-4
+    # position-only physical effects (and the nuisance's position terms) may use at most this share of the
+    # distinct positions: beyond it they fit any shape, and the free table is the honest description
+    position_share: float = 0.5
 
     def to_dict(self) -> dict[str, Any]:
         return {"alpha_per_step": self.alpha, "channels": self.channels,
@@ -71,7 +74,8 @@ class Rule:
                 "bic_decrease_min": self.bic_margin, "cv": "grouped cross-validation RMSE must decrease",
                 "ambiguity": f"another significant candidate within {self.bic_margin:g} of the best BIC that "
                              "adds nothing significant after it", "max_steps": self.max_steps,
-                "resolution_um": self.resolution_um}
+                "resolution_um": self.resolution_um, "position_parameters_max_share": self.position_share,
+                "cv_positions": "position-only effects must lower the RMSE of predicting held-out positions"}
 
 
 # -- noise --------------------------------------------------------------------------------------------------
@@ -229,6 +233,10 @@ class CandidateTest:
     significant: bool
     look_elsewhere: float = 1.0
     ar1_phi: float = 0.0  # the AR(1) coefficient of the errors in time order the tests were whitened for
+    # position-only physical candidates: the parameters of the position (with the model's) against the distinct
+    # positions, and the RMSE of predicting held-out positions before and after
+    position_budget: tuple[int, int] | None = None
+    cv_positions_um: tuple[float | None, float | None] = (None, None)
 
     @property
     def label(self) -> str:
@@ -239,7 +247,27 @@ class CandidateTest:
                 "p_threshold": self.p_threshold, "parameters_added": self.added,
                 "wavelengths_scanned": self.look_elsewhere if self.look_elsewhere != 1.0 else None,
                 "cv_rmse_before_um": self.cv_before_um, "cv_rmse_after_um": self.cv_after_um,
-                "ar1_phi": self.ar1_phi, "significant": self.significant}
+                "ar1_phi": self.ar1_phi,
+                "position_parameters": self.position_budget[0] if self.position_budget else None,
+                "positions": self.position_budget[1] if self.position_budget else None,
+                "cv_positions_rmse_before_um": self.cv_positions_um[0],
+                "cv_positions_rmse_after_um": self.cv_positions_um[1], "significant": self.significant}
+
+
+POSITION_ONLY = ("linear_scale", "quadratic", "periodic")
+"""Physical effects that are functions of the position alone: together they must leave most of the position
+means' degrees of freedom to the noise (eight parameters reproduce eleven means, whatever their shape)."""
+
+
+def position_parameters(obs: Observations, effects: tuple[Effect, ...]) -> int:
+    """Parameters of the position-only physical effects of ``effects`` and of the nuisance's position terms."""
+    k = sum(name in ("offset_um", "slope_um_per_m") for name in obs.nuisance_names)
+    return k + sum(len(e.free) for e in effects if e.type in POSITION_ONLY)
+
+
+def position_folds(obs: Observations) -> np.ndarray:
+    """Cross-validation folds holding out whole positions (at most MAX_FOLDS, interleaved along the travel)."""
+    return fold_ids(group_ids(obs.values["position_mm"]))
 
 
 def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int, rule: Rule,
@@ -269,8 +297,18 @@ def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int,
     cv_before, cv_after = cv_rmse([before, fold_fits(fit.design, fit.target, obs.folds)])
     significant = (p < threshold and dbic <= -rule.bic_margin and current.rms_um > rule.resolution_um
                    and (cv_before is None or cv_after is None or cv_after < cv_before))
+    budget: tuple[int, int] | None = None
+    cv_pos: list[float | None] = [None, None]
+    if cand.type in POSITION_ONLY and obs.has("position_mm"):
+        # parameters against the position degrees of freedom, and a test on held-out positions: a combination of
+        # scale and waves can reproduce a handful of position means whatever their shape (a step, a joint)
+        budget = (position_parameters(obs, fit.effects), len(np.unique(obs.values["position_mm"])))
+        folds = position_folds(obs)
+        cv_pos = cv_rmse([fold_fits(current.design, current.target, folds), fold_fits(fit.design, fit.target, folds)])
+        significant = (significant and budget[0] <= budget[1] * rule.position_share
+                       and (None in cv_pos or cv_pos[1] < cv_pos[0]))  # type: ignore[operator]
     return CandidateTest(fit.effects[-1], fit, added_total, dbic, f_stat, p, threshold, cv_before, cv_after,
-                         significant, m_eff, phi)
+                         significant, m_eff, phi, budget, (cv_pos[0], cv_pos[1]))
 
 
 def whitened_rss(obs: Observations, smaller: Fit, larger: Fit) -> tuple[float, float, float]:
@@ -324,10 +362,21 @@ class ChannelDiagnosis:
     not_testable: dict[str, str]
     last_round: tuple[CandidateTest, ...]
     rule: Rule = field(default_factory=Rule)
+    structure: dict[str, Any] = field(default_factory=dict)  # what the final residual still holds
+
+    @property
+    def position_unexplained(self) -> bool:
+        """The final residual still varies with the position beyond the noise: the position-only effects
+        added describe part of something the library does not hold, and are not named."""
+        return bool(self.structure.get("position", {}).get("structured"))
+
+    def is_named(self, step: Step) -> bool:
+        return not (step.ambiguous_with or step.implausible
+                    or (self.position_unexplained and step.test.effect.type in POSITION_ONLY))
 
     @property
     def named(self) -> list[str]:
-        return [s.test.effect.type for s in self.steps if not s.ambiguous_with and not s.implausible]
+        return [s.test.effect.type for s in self.steps if self.is_named(s)]
 
 
 def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect], rule: Rule | None = None
@@ -376,8 +425,46 @@ def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect]
     told = [Step(s.test, s.fit, s.noise, s.tested, alike_of.get(len(model) + i, ()), in_final.get(len(model) + i),
                  alternatives.get(len(model) + i, ()), implausible(final.effects[len(model) + i], obs))
             for i, s in enumerate(steps)]
-    return ChannelDiagnosis(obs, model, baseline, base_noise, tuple(told), final, noise_estimate(obs, final),
-                            regions, tuple(ambiguous), not_testable, last, rule)
+    noise = noise_estimate(obs, final)
+    return ChannelDiagnosis(obs, model, baseline, base_noise, tuple(told), final, noise, regions, tuple(ambiguous),
+                            not_testable, last, rule, residual_structure(obs, final, noise))
+
+
+STRUCTURE_ALPHA = 1e-3
+
+
+def residual_structure(obs: Observations, fit: Fit, noise: Noise, alpha: float = STRUCTURE_ALPHA) -> dict[str, Any]:
+    """Is the residual white?  In time order: the Ljung–Box test (10 lags) and the AR(1) coefficient; along the
+    position: the lack-of-fit F-test of the residual against the scatter within the replicate groups (same
+    position), and where the mean residual changes most between adjacent positions."""
+    order = serial.time_order(obs.values, obs.n)
+    r = fit.residual[order]
+    q, p, lags = serial.ljung_box(r, 10)
+    out: dict[str, Any] = {"alpha": alpha, "time": {
+        "order": "time" if obs.has("time_min") else "acquisition", "ljung_box_q": q, "lags": lags, "p_value": p,
+        "ar1_phi": serial.ar1_coefficient(r, orthonormal_basis(fit.design)[order]), "structured": p < alpha}}
+    key = "position_mm" if obs.has("position_mm") else "x_mm"
+    dof_lof = obs.n - fit.n_params - noise.dof
+    if not noise.source.startswith("pure error") or dof_lof <= 0 or not obs.has(key) or noise.sigma_um <= 0:
+        return out
+    ss_pe = noise.sigma_um**2 * noise.dof
+    f = ((fit.rss - ss_pe) / dof_lof) / noise.sigma_um**2
+    p = float(stats.f.sf(f, dof_lof, noise.dof))
+    pos, inv = np.unique(np.round(obs.values[key], 6), return_inverse=True)
+    counts = np.bincount(inv).astype(float)
+    means = np.bincount(inv, weights=fit.residual) / counts
+    where: dict[str, Any] = {}
+    if len(pos) >= 2:
+        z = np.diff(means) / (noise.sigma_um * np.sqrt(1 / counts[1:] + 1 / counts[:-1]))
+        k = int(np.argmax(np.abs(z)))
+        # two-sided, Bonferroni over the adjacent pairs (conservative: the fit only shrinks the residual)
+        p_step = min(1.0, float(2 * stats.norm.sf(abs(z[k]))) * len(z))
+        where = {"at_mm": float((pos[k] + pos[k + 1]) / 2), "between_mm": [float(pos[k]), float(pos[k + 1])],
+                 "change_um": float(means[k + 1] - means[k]), "z": float(z[k]), "p_value": p_step}
+    structured = p < alpha or where.get("p_value", 1.0) < alpha
+    out["position"] = {"lack_of_fit_f": f, "dof": [dof_lof, noise.dof], "p_value": p, "structured": structured,
+                       "largest_change": where}
+    return out
 
 
 CATCH_ALL = ("error_table", "profile_table")

@@ -46,7 +46,7 @@ def test_null_runs_with_ar1_noise_name_nothing(tmp_path: Path) -> None:
     rows = linear_cycle(TARGETS_MM, 5)
     alarms, phis = [], []
     for seed in range(10):
-        d = diagnose(write_run(tmp_path / f"run{seed}", rows, [], seed=seed, noise_um=ar1(len(rows), 0.9, seed)))
+        d = diagnose(write_run(tmp_path / f"run{seed}", rows, [], seed=seed, noise_um=ar1(len(rows), 0.9, 1000 + seed)))
         if d.named or d.ambiguous:
             alarms.append((seed, d.named, d.ambiguous))
         phis.append(max(getattr(t, "ar1_phi", 0.0) for t in d.primary.last_round))
