@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -67,6 +67,7 @@ class Rule:
     # position-only physical effects (and the nuisance's position terms) may use at most this share of the
     # distinct positions: beyond it they fit any shape, and the free table is the honest description
     position_share: float = 0.5
+    excluded: tuple[str, ...] = ()  # candidate types left out (the second pass without position-only effects)
 
     def to_dict(self) -> dict[str, Any]:
         return {"alpha_per_step": self.alpha, "channels": self.channels,
@@ -75,7 +76,8 @@ class Rule:
                 "ambiguity": f"another significant candidate within {self.bic_margin:g} of the best BIC that "
                              "adds nothing significant after it", "max_steps": self.max_steps,
                 "resolution_um": self.resolution_um, "position_parameters_max_share": self.position_share,
-                "cv_positions": "position-only effects must lower the RMSE of predicting held-out positions"}
+                "cv_positions": "position-only effects must lower the RMSE of predicting held-out positions",
+                "excluded": list(self.excluded)}
 
 
 # -- noise --------------------------------------------------------------------------------------------------
@@ -426,8 +428,16 @@ def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect]
                  alternatives.get(len(model) + i, ()), implausible(final.effects[len(model) + i], obs))
             for i, s in enumerate(steps)]
     noise = noise_estimate(obs, final)
-    return ChannelDiagnosis(obs, model, baseline, base_noise, tuple(told), final, noise, regions, tuple(ambiguous),
-                            not_testable, last, rule, residual_structure(obs, final, noise))
+    out = ChannelDiagnosis(obs, model, baseline, base_noise, tuple(told), final, noise, regions, tuple(ambiguous),
+                           not_testable, last, rule,
+                           residual_structure(obs, final, noise) if final.rms_um > rule.resolution_um else {})
+    if out.position_unexplained and any(s.test.effect.type in POSITION_ONLY for s in told):
+        # scale and waves leave structure along the travel: the free table (tried once no physical effect is
+        # significant) may describe it instead; it is preferred when it leaves none
+        alt = diagnose_channel(obs, model, replace(rule, excluded=POSITION_ONLY))
+        if not alt.position_unexplained and any(s.test.effect.type in CATCH_ALL for s in alt.steps):
+            return alt
+    return out
 
 
 STRUCTURE_ALPHA = 1e-3
@@ -477,6 +487,7 @@ def _round(obs: Observations, current: Fit, rule: Rule, not_testable: dict[str, 
     """Every candidate tested against ``current``, best (lowest BIC) first; the free tables too when
     ``catch_all`` is True, or with ``"last"`` when no other candidate is significant."""
     cands, skipped = candidate_effects(obs, current.effects)
+    cands = [c for c in cands if c.type not in rule.excluded]
     not_testable.update(skipped)
     k = len(cands)  # the Bonferroni family counts every candidate, tested or not
     folds = fold_fits(current.design, current.target, obs.folds)

@@ -32,6 +32,7 @@ from ..evaluation.straightness import check_finite, run_geometry
 from ..store.files import write_text_atomic
 from ..store.reader import LoadedRun, load_run
 from .model_file import EffectModel, commented_effect, empty_model, load_model, model_toml
+from .remains import not_named_because, remains
 
 
 @dataclass(frozen=True)
@@ -75,7 +76,7 @@ class Diagnosis:
                               "evidence_in_final": s.in_final.evidence() if s.in_final else None,
                               "ambiguous_with": list(s.ambiguous_with),
                               "alternatives": [_params(a) | {"type": a.type} for a in s.alternatives],
-                              "implausible": s.implausible or None})
+                              "implausible": s.implausible or None, "not_named_because": not_named_because(ch, s)})
         out = {
             "kind": self.run.kind,
             "run": str(self.run.path),
@@ -94,6 +95,8 @@ class Diagnosis:
             "noise": {"source": p.noise.source, "dof": p.noise.dof, "baseline_um": p.baseline_noise.sigma_um},
             "disagreement": p.disagreement,
             "not_testable": {k: v for ch in self.channels for k, v in ch.not_testable.items()},
+            "residual_structure": p.structure,
+            "remains": remains(p),
             "candidates": [{"effect": t.effect.type, "label": t.effect.label, **t.evidence()} for t in p.last_round],
             "rule": p.rule.to_dict(),
             "notes": list(self.notes),
@@ -101,7 +104,8 @@ class Diagnosis:
                                           "final": _summary(ch.final), "noise_um": ch.noise.sigma_um,
                                           "noise_source": ch.noise.source, "named": ch.named,
                                           "cv_folds": ch.obs.fold_basis, "stands_out": _stands_out(ch),
-                                          "disagreement": ch.disagreement} for ch in self.channels},
+                                          "disagreement": ch.disagreement, "residual_structure": ch.structure,
+                                          "remains": remains(ch)} for ch in self.channels},
         }
         return _clean(out)
 
@@ -118,10 +122,8 @@ class Diagnosis:
                     print(f"  stands out by {region}: {worst}" + (" ..." if len(info["stand_out"]) > 4 else ""),
                           file=stream)
             for i, s in enumerate(ch.steps, start=1):
-                tag = f"ambiguous with {', '.join(s.ambiguous_with)} (not named)" if s.ambiguous_with else "named"
-                if s.implausible:
-                    tag = f"implausible: {s.implausible} (not named)" + (
-                        f"; ambiguous with {', '.join(s.ambiguous_with)}" if s.ambiguous_with else "")
+                why = not_named_because(ch, s)
+                tag = f"{why} (not named)" if why else "named"
                 together = ""
                 if not s.test.significant and s.in_final is not None:
                     together = (f"; significant only with the later steps: in the final model dBIC "
@@ -129,8 +131,13 @@ class Diagnosis:
                 print(f"  step {i}: {s.test.effect.label} {tag}: {format_params(s.effect, s.fit.se[-1])}; "
                       f"RMS {s.fit.rms_um:.3f} um, max {s.fit.max_um:.3f} um "
                       f"(dBIC {s.test.delta_bic:.1f}, p {s.test.p_value:.2g}{together})", file=stream)
-            if not ch.steps:
+            left = remains(ch)
+            if not ch.steps and not left:
                 print("  nothing significant is missing from the model", file=stream)
+            elif not ch.steps:
+                print("  no effect of the library is significant, but the residual is not white:", file=stream)
+            for sentence in left:
+                print(f"  remains: {sentence}", file=stream)
             print(f"  final: RMS {ch.final.rms_um:.3f} um, max {ch.final.max_um:.3f} um, "
                   f"noise {ch.noise.sigma_um:.3f} um", file=stream)
         for note in self.notes:
@@ -143,11 +150,14 @@ class Diagnosis:
     def model_file_text(self) -> str:
         """The final model as a model file (fitted values; the effects stay free so a later run refits them)."""
         entries: list[tuple[Effect | None, str]] = []
-        steps = {id(ch.final.effects[len(ch.model) + i]): s for ch in self.channels for i, s in enumerate(ch.steps)}
+        steps = {id(ch.final.effects[len(ch.model) + i]): (s, ch) for ch in self.channels
+                 for i, s in enumerate(ch.steps)}
         for effect, se, channel in self.final_effects():
-            step = steps.get(id(effect))
+            step, ch = steps.get(id(effect), (None, None))
             comment = (f"{'added by the diagnosis' if step else 'from the model'} ({channel} channel): "
                        f"{format_params(effect, se) if effect.free else 'fixed'}")
+            if step is not None and ch is not None and not ch.is_named(step):
+                comment += f"\nnot named: {not_named_because(ch, step)}"
             if step is not None and (step.ambiguous_with or step.implausible):
                 # not a finding: written as comments, the choice left to the user
                 why = []
