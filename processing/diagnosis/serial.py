@@ -18,6 +18,9 @@ import numpy as np
 from scipy import optimize, signal, stats
 
 PHI_MAX = 0.98  # beyond this a run holds too few independent errors to say anything
+# φ̂ is used only when the correlation is detectable (one-sided 1 % test of φ = 0, SE of φ̂ ≈ 1/√n): whitening
+# for a φ that is not there costs a slow effect's test (1 − φ)/√(1 + φ²) of its signal-to-noise ratio
+PHI_Z = 2.33
 
 
 def time_order(values: dict[str, np.ndarray], n: int) -> np.ndarray:
@@ -65,7 +68,7 @@ def ar1_coefficient(residual_ordered: np.ndarray, basis_ordered: np.ndarray) -> 
     """The AR(1) coefficient of the errors behind a least-squares residual (both in time order),
     bias-corrected: the φ whose expected residual lag-1 autocorrelation (:func:`expected_lag1`)
     equals the observed one; clipped to [0, PHI_MAX] (a negative φ is taken as none: the tests
-    stay those for independent errors, which are then conservative)."""
+    stay those for independent errors, which are then conservative), and 0 unless φ̂·√n > PHI_Z."""
     n = len(residual_ordered)
     if n < 8:
         return 0.0
@@ -76,9 +79,8 @@ def ar1_coefficient(residual_ordered: np.ndarray, basis_ordered: np.ndarray) -> 
 
     if gap(0.0) >= 0:
         return 0.0
-    if gap(PHI_MAX) <= 0:
-        return PHI_MAX
-    return float(optimize.brentq(gap, 0.0, PHI_MAX, xtol=1e-4))
+    phi = PHI_MAX if gap(PHI_MAX) <= 0 else float(optimize.brentq(gap, 0.0, PHI_MAX, xtol=1e-4))
+    return phi if phi * math.sqrt(n) > PHI_Z else 0.0
 
 
 def prais_winsten(v: np.ndarray, order: np.ndarray, phi: float) -> np.ndarray:
