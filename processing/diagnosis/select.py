@@ -11,7 +11,13 @@ candidate is *significant* when all of:
 2. it lowers the Schwarz criterion by at least 10 (BIC; "very strong" evidence, Kass & Raftery
    1995);
 3. it lowers the grouped cross-validation RMSE (folds = whole approach series, or pass and
-   station block; skipped where no fold can be held out).
+   station block; skipped where no fold can be held out);
+4. and 5., for an effect of the position alone (scale, sag, periodic): the position parameters of
+   the model with it stay within half the distinct positions, and it lowers the RMSE of predicting
+   held-out positions.
+
+Criteria 1 and 2 compare the residual sums of squares after whitening for AR(1) errors in time
+order (serial.py: feasible generalised least squares, φ estimated from the larger model).
 
 The best significant candidate (lowest BIC; a physical effect before a free table, which is
 tried only when no physical effect is significant) is added and the loop repeats.  A backward
