@@ -14,6 +14,15 @@ Bonferroni-adjusted p-value (p · C · K) falls below 0.05 — the false-alarm r
 would give at α = 0.05, which the bound says is at most 0.05.
 
     python benchmarks/diagnosis_false_alarm.py [--seeds 200]
+
+``--ar1`` measures the rule under serially correlated noise instead: the positioning null runs
+simulated without noise, then AR(1) noise added in time order (e_t = φ e_{t−1} + w_t, marginal σ
+``--sigma-um``, 0.2 µm) at φ = 0.7 and 0.9 (``--phi``): the false-alarm rate, and the rate at which a
+single hidden effect (``--effect``, thermal_drift) of 5 standard errors (``--se``) is named, the standard error
+being that of the generalised least-squares estimate under the true noise covariance, computed here:
+SE² = [(Xᵀ Σ⁻¹ X)⁻¹]_kk, X = [1, the effect's column], Σ_ij = σ² φ^|i−j| in time order.
+
+    python benchmarks/diagnosis_false_alarm.py --ar1 [--seeds 100] [--phi 0.7 0.9]
 """
 
 from __future__ import annotations
@@ -28,6 +37,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
 from scipy import stats  # noqa: E402
 
 from acquisition.simulated.scenario import scenario_from_dict  # noqa: E402
@@ -89,11 +99,87 @@ def count(label: str, scenario: dict, model: dict | None, seeds: int, tmp: Path)
           f"({adjusted_below / max(rounds, 1):.3f}, 95 % interval {lo:.3f} … {hi:.3f})")
 
 
+# one unit of each effect's parameter, as the scenario states it (the column the GLS standard error is of)
+UNIT_EFFECTS = {"thermal_drift": ("um_per_min", lambda p, t: t), "linear_scale": ("ppm", lambda p, t: p * 1e-3),
+                "thermal_growth": ("ppm_per_min", lambda p, t: p * t * 1e-3)}
+
+
+def ar1_noise(n: int, phi: float, sigma_um: float, rng: np.random.Generator) -> np.ndarray:
+    """A stationary AR(1) sequence of marginal standard deviation ``sigma_um``."""
+    e = np.empty(n)
+    e[0] = rng.normal(0.0, sigma_um)
+    w = rng.normal(0.0, sigma_um * math.sqrt(1.0 - phi * phi), n)
+    for i in range(1, n):
+        e[i] = phi * e[i - 1] + w[i]
+    return e
+
+
+def with_ar1_noise(run_dir: Path, phi: float, sigma_um: float, seed: int) -> None:
+    """Add AR(1) noise in time order to a noise-free simulated run's readings (µm → mm)."""
+    points = pd.read_csv(run_dir / "points.csv")
+    order = np.argsort(points["time_s"].to_numpy(), kind="stable")
+    noise = np.empty(len(points))
+    noise[order] = ar1_noise(len(points), phi, sigma_um, np.random.default_rng(seed))
+    points["reading_mm"] = points["reading_mm"] + noise * 1e-3
+    points.to_csv(run_dir / "points.csv", index=False, float_format="%.12g")
+
+
+def gls_standard_error(column: np.ndarray, order: np.ndarray, phi: float, sigma_um: float) -> float:
+    """SE of the coefficient of ``column`` fitted with an offset by GLS under AR(1) noise (time ``order``)."""
+    x = np.column_stack([np.ones(len(column)), column])[order]
+    k = np.arange(len(column))
+    cov = sigma_um**2 * phi ** np.abs(k[:, None] - k[None, :])
+    info = x.T @ np.linalg.solve(cov, x)
+    return float(math.sqrt(np.linalg.inv(info)[1, 1]))
+
+
+def count_ar1(phi: float, seeds: int, sigma_um: float, effect: str, tmp: Path, n_se: float = 5.0) -> None:
+    sc = scenario_from_dict(POSITIONING, "ar1")
+    alarms, found, examples = 0, 0, []
+    name, unit = UNIT_EFFECTS[effect]
+    size = None
+    for seed in range(seeds):
+        out = tmp / f"ar1_{phi}_{seed}"
+        simulate_run(sc, out, seed=20_000 + seed, noise=False)
+        with_ar1_noise(out, phi, sigma_um, seed)
+        d = diagnose_run(out)
+        if d.named or d.ambiguous:
+            alarms += 1
+            examples.append((seed, d.named, d.ambiguous))
+        if size is None:
+            pts = pd.read_csv(out / "points.csv")
+            t = (pts["time_s"].to_numpy() - pts["time_s"].min()) / 60.0
+            order = np.argsort(t, kind="stable")
+            size = n_se * gls_standard_error(unit(pts["target_mm"].to_numpy(), t), order, phi, sigma_um)
+        hidden = scenario_from_dict({**POSITIONING, "effect": [{"type": effect, name: size}]}, "ar1 effect")
+        out = tmp / f"ar1_{phi}_{seed}_effect"
+        simulate_run(hidden, out, seed=30_000 + seed, noise=False)
+        with_ar1_noise(out, phi, sigma_um, 50_000 + seed)
+        found += effect in diagnose_run(out).named
+    lo, hi = clopper_pearson(alarms, seeds)
+    print(f"AR(1) phi {phi}, marginal sigma {sigma_um} um: {alarms} false alarm(s) in {seeds} null runs, "
+          f"rate {alarms / seeds:.3f} (95 % interval {lo:.3f} … {hi:.3f})"
+          + (f"; e.g. {examples[:3]}" if examples else ""))
+    lo, hi = clopper_pearson(found, seeds)
+    print(f"  {effect} at {n_se:g} GLS standard errors ({name} = {size:.4g}): named in {found} of {seeds} runs, "
+          f"rate {found / seeds:.3f} (95 % interval {lo:.3f} … {hi:.3f})")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=200)
     ap.add_argument("--only", choices=("positioning", "straightness", "reference"), default=None)
+    ap.add_argument("--ar1", action="store_true", help="null runs and a 5-SE effect under AR(1) noise")
+    ap.add_argument("--phi", type=float, nargs="+", default=[0.7, 0.9])
+    ap.add_argument("--sigma-um", type=float, default=0.2)
+    ap.add_argument("--effect", choices=sorted(UNIT_EFFECTS), default="thermal_drift")
+    ap.add_argument("--se", type=float, default=5.0, help="size of the hidden effect in standard errors")
     args = ap.parse_args()
+    if args.ar1:
+        with tempfile.TemporaryDirectory() as tmp:
+            for phi in args.phi:
+                count_ar1(phi, args.seeds, args.sigma_um, args.effect, Path(tmp), args.se)
+        return 0
     with tempfile.TemporaryDirectory() as tmp:
         if args.only in (None, "positioning"):
             count("positioning", POSITIONING, None, args.seeds, Path(tmp))

@@ -17,8 +17,9 @@ the first measured point; s = +1 / −1 approach direction; ε the axis' angular
 
 Straightness: the sensor reports (1 + ppm·1e-6) times the true height-sense value plus
 um_per_min · t (sensor_gain, sensor_drift); the true block is longer than recorded by
-um_per_block (block_length) and its sensor sits error_mm closer to P along X than recorded
-(lever_arm); a profile_table adds its heights to the surface (x from the first sample point).
+um_per_block (block_length) and its sensor sits error_mm closer to P along X than recorded,
+whether it is ahead of P or behind it (lever_arm); a profile_table adds its heights to the surface (x from
+the first sample point).
 """
 
 from __future__ import annotations
@@ -152,8 +153,12 @@ def straightness_parts(effects: Sequence[EffectSpec], recorded: BlockSetup, base
         if kind == "block_length":
             block = replace(block, length_mm=block.length_mm + q["um_per_block"] * 1e-3)
         elif kind == "lever_arm":
+            # the recorded P–Q distance along X is longer than the true one by error_mm: the true Q sits
+            # error_mm nearer P, on whichever side of P the sensor is
             head = block.sensor_head_mm
-            block = replace(block, sensor_head_mm=(head[0] - q["error_mm"], head[1], head[2]))
+            q_x = head[0] + block.standoff_mm * block.beam[0]
+            toward_p = -1.0 if q_x >= block.mirror_mm[0] else 1.0
+            block = replace(block, sensor_head_mm=(head[0] + toward_p * q["error_mm"], head[1], head[2]))
         elif kind == "profile_table":
             tables.append((tuple(q["positions_mm"]), tuple(q["height_um"])))
         elif kind == "sensor_gain":

@@ -28,7 +28,8 @@ since the first point, µrad; k the station)::
     profile_table   h = interp(x; positions_mm, height_um)   (+ offset and slope, nuisance)
     sensor_drift    h += um_per_min · t
     sensor_gain     h += ppm · 1e-6 · s_k
-    lever_arm       h += error_mm · Δε · 1e-3          (error_mm = recorded xQ − xP minus the true one)
+    lever_arm       h += ±error_mm · Δε · 1e-3         (error_mm = recorded |xQ − xP| minus the true one;
+                                                       + with the sensor ahead of P, xQ > xP; − behind it)
     block_length    lin_um += um_per_block · k         (the block is longer than recorded)
 """
 
@@ -121,8 +122,8 @@ EFFECT_TYPES: dict[str, EffectType] = {t.name: t for t in (
     EffectType("sensor_gain", "straightness", (_p("ppm", "scale error of the reading change"),),
                "h += ppm · 1e-6 · s (s = sensor change since the first point, height sense, µm)",
                "sensor scale error or the cosine of its tilt", "height"),
-    EffectType("lever_arm", "straightness", (_p("error_mm", "recorded xQ − xP minus the true distance"),),
-               "h += error_mm · Δpitch_urad · 1e-3",
+    EffectType("lever_arm", "straightness", (_p("error_mm", "recorded |xQ − xP| minus the true distance"),),
+               "h += sign(xQ − xP) · error_mm · Δpitch_urad · 1e-3",
                "the recorded X distance between P and Q is wrong", "height"),
     EffectType("block_length", "straightness", (_p("um_per_block", "block longer than recorded by this"),),
                "lin_um += um_per_block · k (k = station)",

@@ -28,7 +28,8 @@ LINEAR: dict[str, tuple[str, Callable[[Observations], np.ndarray]]] = {
     "dead_path": ("length_mm", lambda o: o.values["index_change"] * 1e3),
     "sensor_drift": ("um_per_min", lambda o: o.values["time_min"]),
     "sensor_gain": ("ppm", lambda o: o.values["sensor_um"] * 1e-6),
-    "lever_arm": ("error_mm", lambda o: o.values["dpitch_urad"] * 1e-3),
+    # the height takes (xQ − xP)·Δε: a recorded distance |xQ − xP| longer by error_mm errs by its side's sign
+    "lever_arm": ("error_mm", lambda o: o.values["q_side"] * o.values["dpitch_urad"] * 1e-3),
     "block_length": ("um_per_block", lambda o: o.values["station"]),
 }
 TABLES = {"error_table": ("position_mm", "error_um"), "profile_table": ("x_mm", "height_um")}
@@ -44,7 +45,7 @@ def needs(effect_type: str, variant: str = "") -> tuple[str, ...]:
         keys = {"linear_scale": ("position_mm",), "quadratic": ("position_mm",), "backlash": ("direction",),
                 "thermal_drift": ("time_min",), "thermal_growth": ("position_mm", "time_min"),
                 "dead_path": ("index_change",), "sensor_drift": ("time_min",), "sensor_gain": ("sensor_um",),
-                "lever_arm": ("dpitch_urad",), "block_length": ("station",)}
+                "lever_arm": ("dpitch_urad", "q_side"), "block_length": ("station",)}
         return keys[effect_type]
     if effect_type == "abbe":
         return (f"{variant or 'pitch'}_urad",)

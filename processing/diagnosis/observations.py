@@ -118,12 +118,13 @@ def _index_change(index: np.ndarray | None, time_s: np.ndarray, n: int) -> np.nd
 
 
 def straightness_observations(points: pd.DataFrame, per_point: pd.DataFrame, sensor_um: np.ndarray,
-                              *, reference: bool) -> tuple[Observations, Observations]:
+                              *, reference: bool, lever_x_mm: float = 100.0) -> tuple[Observations, Observations]:
     """The height and lin channels of a straightness run.
 
     ``per_point``: the decoupled profile of every point (x_mm, height_um), row for row;
     ``sensor_um``: the sensor reading change since the first point, height sense (µm);
-    ``reference``: the model holds a reference profile (profile_table).
+    ``reference``: the model holds a reference profile (profile_table); ``lever_x_mm``: xQ − xP, the recorded
+    distance along X from the interferometer's point P to the sensor's point Q (+ ahead of P, − behind).
     """
     n = len(points)
     station = points["station"].to_numpy(dtype=int)
@@ -136,6 +137,8 @@ def straightness_observations(points: pd.DataFrame, per_point: pd.DataFrame, sen
         "time_min": time_minutes(_column(points, "time_s")),
         "sensor_um": np.asarray(sensor_um, dtype=float),
         "dpitch_urad": pitch - pitch[0],
+        "q_side": np.full(n, 1.0 if lever_x_mm >= 0 else -1.0),
+        "lever_x_mm": np.full(n, float(lever_x_mm)),
     }
     ranks = np.argsort(np.argsort(station, kind="stable"), kind="stable")
     block = (ranks * STATION_BLOCKS // max(n, 1)).astype(int)

@@ -11,7 +11,13 @@ candidate is *significant* when all of:
 2. it lowers the Schwarz criterion by at least 10 (BIC; "very strong" evidence, Kass & Raftery
    1995);
 3. it lowers the grouped cross-validation RMSE (folds = whole approach series, or pass and
-   station block; skipped where no fold can be held out).
+   station block; skipped where no fold can be held out);
+4. and 5., for an effect of the position alone (scale, sag, periodic): the position parameters of
+   the model with it stay within half the distinct positions, and it lowers the RMSE of predicting
+   held-out positions.
+
+Criteria 1 and 2 compare the residual sums of squares after whitening for AR(1) errors in time
+order (serial.py: feasible generalised least squares, φ estimated from the larger model).
 
 The best significant candidate (lowest BIC; a physical effect before a free table, which is
 tried only when no physical effect is significant) is added and the loop repeats.  A backward
@@ -28,16 +34,28 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from scipy import stats
 
 from ..effects import Effect
-from . import basis
-from .fit import Fit, FoldFits, bic, cv_rmse, fit_model, fold_fits, free_wavelength, wavelength_grid
-from .observations import Observations
+from . import basis, serial
+from .fit import (
+    Fit,
+    FoldFits,
+    bic,
+    cv_rmse,
+    fit_model,
+    fold_fits,
+    free_wavelength,
+    orthonormal_basis,
+    solve,
+    wavelength_grid,
+)
+from .observations import Observations, fold_ids, group_ids
+from .plausible import implausible
 
 
 @dataclass(frozen=True)
@@ -52,6 +70,10 @@ class Rule:
     # a residual RMS below this holds nothing to diagnose: no interferometer resolves 0.1 nm, and the
     # rounding of a noise-free simulation (--no-noise) would otherwise pass every test
     resolution_um: float = 1e-4
+    # position-only physical effects (and the nuisance's position terms) may use at most this share of the
+    # distinct positions: beyond it they fit any shape, and the free table is the honest description
+    position_share: float = 0.5
+    excluded: tuple[str, ...] = ()  # candidate types left out (the second pass without position-only effects)
 
     def to_dict(self) -> dict[str, Any]:
         return {"alpha_per_step": self.alpha, "channels": self.channels,
@@ -59,7 +81,9 @@ class Rule:
                 "bic_decrease_min": self.bic_margin, "cv": "grouped cross-validation RMSE must decrease",
                 "ambiguity": f"another significant candidate within {self.bic_margin:g} of the best BIC that "
                              "adds nothing significant after it", "max_steps": self.max_steps,
-                "resolution_um": self.resolution_um}
+                "resolution_um": self.resolution_um, "position_parameters_max_share": self.position_share,
+                "cv_positions": "position-only effects must lower the RMSE of predicting held-out positions",
+                "excluded": list(self.excluded)}
 
 
 # -- noise --------------------------------------------------------------------------------------------------
@@ -216,6 +240,11 @@ class CandidateTest:
     cv_after_um: float | None
     significant: bool
     look_elsewhere: float = 1.0
+    ar1_phi: float = 0.0  # the AR(1) coefficient of the errors in time order the tests were whitened for
+    # position-only physical candidates: the parameters of the position (with the model's) against the distinct
+    # positions, and the RMSE of predicting held-out positions before and after
+    position_budget: tuple[int, int] | None = None
+    cv_positions_um: tuple[float | None, float | None] = (None, None)
 
     @property
     def label(self) -> str:
@@ -226,7 +255,27 @@ class CandidateTest:
                 "p_threshold": self.p_threshold, "parameters_added": self.added,
                 "wavelengths_scanned": self.look_elsewhere if self.look_elsewhere != 1.0 else None,
                 "cv_rmse_before_um": self.cv_before_um, "cv_rmse_after_um": self.cv_after_um,
-                "significant": self.significant}
+                "ar1_phi": self.ar1_phi,
+                "position_parameters": self.position_budget[0] if self.position_budget else None,
+                "positions": self.position_budget[1] if self.position_budget else None,
+                "cv_positions_rmse_before_um": self.cv_positions_um[0],
+                "cv_positions_rmse_after_um": self.cv_positions_um[1], "significant": self.significant}
+
+
+POSITION_ONLY = ("linear_scale", "quadratic", "periodic")
+"""Physical effects that are functions of the position alone: together they must leave most of the position
+means' degrees of freedom to the noise (eight parameters reproduce eleven means, whatever their shape)."""
+
+
+def position_parameters(obs: Observations, effects: tuple[Effect, ...]) -> int:
+    """Parameters of the position-only physical effects of ``effects`` and of the nuisance's position terms."""
+    k = sum(name in ("offset_um", "slope_um_per_m") for name in obs.nuisance_names)
+    return k + sum(len(e.free) for e in effects if e.type in POSITION_ONLY)
+
+
+def position_folds(obs: Observations) -> np.ndarray:
+    """Cross-validation folds holding out whole positions (at most MAX_FOLDS, interleaved along the travel)."""
+    return fold_ids(group_ids(obs.values["position_mm"]))
 
 
 def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int, rule: Rule,
@@ -243,8 +292,9 @@ def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int,
     if added <= 0 or dof <= 0:
         return None
     n = obs.n
-    dbic = bic(fit.rss, n, fit.n_params) - bic(current.rss, n, current.n_params)
-    f_stat = ((current.rss - fit.rss) / added_total) / (fit.rss / dof) if fit.rss > 0 else math.inf
+    phi, rss0, rss1 = whitened_rss(obs, current, fit)
+    dbic = bic(rss1, n, fit.n_params) - bic(rss0, n, current.n_params)
+    f_stat = ((rss0 - rss1) / added_total) / (rss1 / dof) if rss1 > 0 else math.inf
     p = float(stats.f.sf(f_stat, added_total, dof))
     m_eff = 1.0
     if free_wavelength(cand):
@@ -255,8 +305,33 @@ def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int,
     cv_before, cv_after = cv_rmse([before, fold_fits(fit.design, fit.target, obs.folds)])
     significant = (p < threshold and dbic <= -rule.bic_margin and current.rms_um > rule.resolution_um
                    and (cv_before is None or cv_after is None or cv_after < cv_before))
+    budget: tuple[int, int] | None = None
+    cv_pos: list[float | None] = [None, None]
+    if cand.type in POSITION_ONLY and obs.has("position_mm"):
+        # parameters against the position degrees of freedom, and a test on held-out positions: a combination of
+        # scale and waves can reproduce a handful of position means whatever their shape (a step, a joint)
+        budget = (position_parameters(obs, fit.effects), len(np.unique(obs.values["position_mm"])))
+        folds = position_folds(obs)
+        cv_pos = cv_rmse([fold_fits(current.design, current.target, folds), fold_fits(fit.design, fit.target, folds)])
+        significant = (significant and budget[0] <= budget[1] * rule.position_share
+                       and (None in cv_pos or cv_pos[1] < cv_pos[0]))  # type: ignore[operator]
     return CandidateTest(fit.effects[-1], fit, added_total, dbic, f_stat, p, threshold, cv_before, cv_after,
-                         significant, m_eff)
+                         significant, m_eff, phi, budget, (cv_pos[0], cv_pos[1]))
+
+
+def whitened_rss(obs: Observations, smaller: Fit, larger: Fit) -> tuple[float, float, float]:
+    """(φ, RSS of ``smaller``, RSS of ``larger``) after the Prais–Winsten transform for AR(1) errors in
+    time order (serial.py), φ estimated from the larger model's residual (it holds under both hypotheses:
+    an effect missing from the smaller model would pass for correlation in its residual); φ = 0: the
+    ordinary sums.  Both models are fitted to the same observations, so the nested comparison (F-test,
+    BIC) is the generalised least-squares one."""
+    order = serial.time_order(obs.values, obs.n)
+    phi = serial.ar1_coefficient(larger.residual[order], orthonormal_basis(larger.design)[order])
+    if phi == 0.0:
+        return 0.0, smaller.rss, larger.rss
+    rss = [solve(serial.prais_winsten(f.design, order, phi), serial.prais_winsten(f.target, order, phi))[1]
+           for f in (smaller, larger)]
+    return phi, rss[0], rss[1]
 
 
 # -- the loop ---------------------------------------------------------------------------------------------------
@@ -272,6 +347,8 @@ class Step:
     # the effect tested again in the final model, the others in (what the backward pass keeps it on):
     # a step can be below the rule on its own when effects are significant only together
     in_final: CandidateTest | None = None
+    alternatives: tuple[Effect, ...] = ()  # the ambiguous candidates as fitted in its place
+    implausible: str = ""  # why its fitted value is physically implausible (then it is not named)
 
     @property
     def effect(self) -> Effect:
@@ -293,10 +370,21 @@ class ChannelDiagnosis:
     not_testable: dict[str, str]
     last_round: tuple[CandidateTest, ...]
     rule: Rule = field(default_factory=Rule)
+    structure: dict[str, Any] = field(default_factory=dict)  # what the final residual still holds
+
+    @property
+    def position_unexplained(self) -> bool:
+        """The final residual still varies with the position beyond the noise: the position-only effects
+        added describe part of something the library does not hold, and are not named."""
+        return bool(self.structure.get("position", {}).get("structured"))
+
+    def is_named(self, step: Step) -> bool:
+        return not (step.ambiguous_with or step.implausible
+                    or (self.position_unexplained and step.test.effect.type in POSITION_ONLY))
 
     @property
     def named(self) -> list[str]:
-        return [s.test.effect.type for s in self.steps if not s.ambiguous_with]
+        return [s.test.effect.type for s in self.steps if self.is_named(s)]
 
 
 def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect], rule: Rule | None = None
@@ -329,6 +417,7 @@ def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect]
         final = steps[-1].fit if steps else baseline
     ambiguous: list[tuple[str, ...]] = []
     alike_of: dict[int, tuple[str, ...]] = {}
+    alternatives: dict[int, tuple[Effect, ...]] = {}
     in_final: dict[int, CandidateTest] = {}
     for j, effect in enumerate(final.effects):
         if effect.free:
@@ -337,13 +426,61 @@ def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect]
                 in_final[j] = own
             if alike:
                 alike_of[j] = tuple(a.label for a in alike)
+                alternatives[j] = tuple(alike)
                 group = tuple(sorted({effect.type, *(a.type for a in alike)}))
                 if group not in ambiguous:
                     ambiguous.append(group)
-    told = [Step(s.test, s.fit, s.noise, s.tested, alike_of.get(len(model) + i, ()), in_final.get(len(model) + i))
+    told = [Step(s.test, s.fit, s.noise, s.tested, alike_of.get(len(model) + i, ()), in_final.get(len(model) + i),
+                 alternatives.get(len(model) + i, ()), implausible(final.effects[len(model) + i], obs))
             for i, s in enumerate(steps)]
-    return ChannelDiagnosis(obs, model, baseline, base_noise, tuple(told), final, noise_estimate(obs, final),
-                            regions, tuple(ambiguous), not_testable, last, rule)
+    noise = noise_estimate(obs, final)
+    out = ChannelDiagnosis(obs, model, baseline, base_noise, tuple(told), final, noise, regions, tuple(ambiguous),
+                           not_testable, last, rule,
+                           residual_structure(obs, final, noise) if final.rms_um > rule.resolution_um else {})
+    if out.position_unexplained and any(s.test.effect.type in POSITION_ONLY for s in told):
+        # scale and waves leave structure along the travel: the free table (tried once no physical effect is
+        # significant) may describe it instead; it is preferred when it leaves none
+        alt = diagnose_channel(obs, model, replace(rule, excluded=POSITION_ONLY))
+        if not alt.position_unexplained and any(s.test.effect.type in CATCH_ALL for s in alt.steps):
+            return alt
+    return out
+
+
+STRUCTURE_ALPHA = 1e-3
+
+
+def residual_structure(obs: Observations, fit: Fit, noise: Noise, alpha: float = STRUCTURE_ALPHA) -> dict[str, Any]:
+    """Is the residual white?  In time order: the Ljung–Box test (10 lags) and the AR(1) coefficient; along the
+    position: the lack-of-fit F-test of the residual against the scatter within the replicate groups (same
+    position), and where the mean residual changes most between adjacent positions."""
+    order = serial.time_order(obs.values, obs.n)
+    r = fit.residual[order]
+    q, p, lags = serial.ljung_box(r, 10)
+    out: dict[str, Any] = {"alpha": alpha, "time": {
+        "order": "time" if obs.has("time_min") else "acquisition", "ljung_box_q": q, "lags": lags, "p_value": p,
+        "ar1_phi": serial.ar1_coefficient(r, orthonormal_basis(fit.design)[order]), "structured": p < alpha}}
+    key = "position_mm" if obs.has("position_mm") else "x_mm"
+    dof_lof = obs.n - fit.n_params - noise.dof
+    if not noise.source.startswith("pure error") or dof_lof <= 0 or not obs.has(key) or noise.sigma_um <= 0:
+        return out
+    ss_pe = noise.sigma_um**2 * noise.dof
+    f = ((fit.rss - ss_pe) / dof_lof) / noise.sigma_um**2
+    p = float(stats.f.sf(f, dof_lof, noise.dof))
+    pos, inv = np.unique(np.round(obs.values[key], 6), return_inverse=True)
+    counts = np.bincount(inv).astype(float)
+    means = np.bincount(inv, weights=fit.residual) / counts
+    where: dict[str, Any] = {}
+    if len(pos) >= 2:
+        z = np.diff(means) / (noise.sigma_um * np.sqrt(1 / counts[1:] + 1 / counts[:-1]))
+        k = int(np.argmax(np.abs(z)))
+        # two-sided, Bonferroni over the adjacent pairs (conservative: the fit only shrinks the residual)
+        p_step = min(1.0, float(2 * stats.norm.sf(abs(z[k]))) * len(z))
+        where = {"at_mm": float((pos[k] + pos[k + 1]) / 2), "between_mm": [float(pos[k]), float(pos[k + 1])],
+                 "change_um": float(means[k + 1] - means[k]), "z": float(z[k]), "p_value": p_step}
+    structured = p < alpha or where.get("p_value", 1.0) < alpha
+    out["position"] = {"lack_of_fit_f": f, "dof": [dof_lof, noise.dof], "p_value": p, "structured": structured,
+                       "largest_change": where}
+    return out
 
 
 CATCH_ALL = ("error_table", "profile_table")
@@ -356,6 +493,7 @@ def _round(obs: Observations, current: Fit, rule: Rule, not_testable: dict[str, 
     """Every candidate tested against ``current``, best (lowest BIC) first; the free tables too when
     ``catch_all`` is True, or with ``"last"`` when no other candidate is significant."""
     cands, skipped = candidate_effects(obs, current.effects)
+    cands = [c for c in cands if c.type not in rule.excluded]
     not_testable.update(skipped)
     k = len(cands)  # the Bonferroni family counts every candidate, tested or not
     folds = fold_fits(current.design, current.target, obs.folds)

@@ -31,7 +31,8 @@ from ..evaluation.positioning import positioning_deviations
 from ..evaluation.straightness import check_finite, run_geometry
 from ..store.files import write_text_atomic
 from ..store.reader import LoadedRun, load_run
-from .model_file import EffectModel, empty_model, load_model, model_toml
+from .model_file import EffectModel, commented_effect, empty_model, load_model, model_toml
+from .remains import not_named_because, remains
 
 
 @dataclass(frozen=True)
@@ -73,7 +74,9 @@ class Diagnosis:
                               "params": _params(s.effect), "se": _clean(s.fit.se[-1]), "rms_um": s.fit.rms_um,
                               "max_um": s.fit.max_um, "noise_um": s.noise.sigma_um, "evidence": s.test.evidence(),
                               "evidence_in_final": s.in_final.evidence() if s.in_final else None,
-                              "ambiguous_with": list(s.ambiguous_with)})
+                              "ambiguous_with": list(s.ambiguous_with),
+                              "alternatives": [_params(a) | {"type": a.type} for a in s.alternatives],
+                              "implausible": s.implausible or None, "not_named_because": not_named_because(ch, s)})
         out = {
             "kind": self.run.kind,
             "run": str(self.run.path),
@@ -82,7 +85,9 @@ class Diagnosis:
             "baseline": _summary(p.baseline),
             "steps": steps,
             "final": {**_summary(p.final),
-                      "model": [{**effect.to_dict(), "se": _clean(se), "channel": ch}
+                      # the effect as a model file states it (an Abbe effect's own channel: pitch or yaw), and
+                      # the observed channel it acts on in its own key
+                      "model": [{**effect.to_dict(), "se": _clean(se), "diagnosis_channel": ch}
                                 for effect, se, ch in self.final_effects()]},
             "named": self.named,
             "ambiguous": self.ambiguous,
@@ -90,14 +95,17 @@ class Diagnosis:
             "noise": {"source": p.noise.source, "dof": p.noise.dof, "baseline_um": p.baseline_noise.sigma_um},
             "disagreement": p.disagreement,
             "not_testable": {k: v for ch in self.channels for k, v in ch.not_testable.items()},
-            "candidates": [{"effect": t.effect.label, **t.evidence()} for t in p.last_round],
+            "residual_structure": p.structure,
+            "remains": remains(p),
+            "candidates": [{"effect": t.effect.type, "label": t.effect.label, **t.evidence()} for t in p.last_round],
             "rule": p.rule.to_dict(),
             "notes": list(self.notes),
             "channels": {ch.obs.channel: {"points": ch.obs.n, "baseline": _summary(ch.baseline),
                                           "final": _summary(ch.final), "noise_um": ch.noise.sigma_um,
                                           "noise_source": ch.noise.source, "named": ch.named,
                                           "cv_folds": ch.obs.fold_basis, "stands_out": _stands_out(ch),
-                                          "disagreement": ch.disagreement} for ch in self.channels},
+                                          "disagreement": ch.disagreement, "residual_structure": ch.structure,
+                                          "remains": remains(ch)} for ch in self.channels},
         }
         return _clean(out)
 
@@ -114,7 +122,8 @@ class Diagnosis:
                     print(f"  stands out by {region}: {worst}" + (" ..." if len(info["stand_out"]) > 4 else ""),
                           file=stream)
             for i, s in enumerate(ch.steps, start=1):
-                tag = f"ambiguous with {', '.join(s.ambiguous_with)} (not named)" if s.ambiguous_with else "named"
+                why = not_named_because(ch, s)
+                tag = f"{why} (not named)" if why else "named"
                 together = ""
                 if not s.test.significant and s.in_final is not None:
                     together = (f"; significant only with the later steps: in the final model dBIC "
@@ -122,8 +131,13 @@ class Diagnosis:
                 print(f"  step {i}: {s.test.effect.label} {tag}: {format_params(s.effect, s.fit.se[-1])}; "
                       f"RMS {s.fit.rms_um:.3f} um, max {s.fit.max_um:.3f} um "
                       f"(dBIC {s.test.delta_bic:.1f}, p {s.test.p_value:.2g}{together})", file=stream)
-            if not ch.steps:
+            left = remains(ch)
+            if not ch.steps and not left:
                 print("  nothing significant is missing from the model", file=stream)
+            elif not ch.steps:
+                print("  no effect of the library is significant, but the residual is not white:", file=stream)
+            for sentence in left:
+                print(f"  remains: {sentence}", file=stream)
             print(f"  final: RMS {ch.final.rms_um:.3f} um, max {ch.final.max_um:.3f} um, "
                   f"noise {ch.noise.sigma_um:.3f} um", file=stream)
         for note in self.notes:
@@ -135,12 +149,28 @@ class Diagnosis:
 
     def model_file_text(self) -> str:
         """The final model as a model file (fitted values; the effects stay free so a later run refits them)."""
-        entries = []
-        added_effects = {id(e) for ch in self.channels for e in ch.final.effects[len(ch.model):]}
+        entries: list[tuple[Effect | None, str]] = []
+        steps = {id(ch.final.effects[len(ch.model) + i]): (s, ch) for ch in self.channels
+                 for i, s in enumerate(ch.steps)}
         for effect, se, channel in self.final_effects():
-            added = id(effect) in added_effects
-            comment = (f"{'added by the diagnosis' if added else 'from the model'} ({channel} channel): "
+            step, ch = steps.get(id(effect), (None, None))
+            comment = (f"{'added by the diagnosis' if step else 'from the model'} ({channel} channel): "
                        f"{format_params(effect, se) if effect.free else 'fixed'}")
+            if step is not None and ch is not None and not ch.is_named(step):
+                comment += f"\nnot named: {not_named_because(ch, step)}"
+            if step is not None and (step.ambiguous_with or step.implausible):
+                # not a finding: written as comments, the choice left to the user
+                why = []
+                if step.ambiguous_with:
+                    why.append(f"the run cannot tell it apart from {', '.join(step.ambiguous_with)}: neither is "
+                               "written; uncomment the one you know to be there (a designed experiment separates them)")
+                if step.implausible:
+                    why.append(f"implausible: {step.implausible}")
+                text = [comment, *why, *commented_effect(effect)]
+                for alt in step.alternatives:
+                    text += [f"or, in its place ({channel} channel):", *commented_effect(alt)]
+                entries.append((None, "\n".join(text)))
+                continue
             entries.append((effect, comment))
         header = [f"model of run {self.run.path} by guideway diagnose (docs/diagnosis.md)",
                   f"start model: {self.model.source}",
@@ -229,7 +259,8 @@ def _straightness(run: LoadedRun, reference: bool) -> tuple[Observations, Observ
         raise RunFormatError(f"{run.path}: {exc}") from None
     per_point = decouple(run.points, geometry, "exact")
     sensor = sensor_height_um(run.points["sensor_mm"].to_numpy(dtype=float), geometry.sensor_sign)
-    return straightness_observations(run.points, per_point, sensor, reference=reference)
+    return straightness_observations(run.points, per_point, sensor, reference=reference,
+                                     lever_x_mm=geometry.sensor_mm[0] - geometry.mirror_mm[0])
 
 
 def diagnose_run(run_dir: Path | str, model: EffectModel | Path | str | None = None,

@@ -85,12 +85,21 @@ def _toml_value(v: Any) -> str:
     return toml_string(str(v))
 
 
-def model_toml(kind: str, effects: list[tuple[Effect, str]], header: list[str]) -> str:
-    """A model file holding ``effects`` (each with a comment line), readable by :func:`load_model`."""
+def commented_effect(effect: Effect) -> list[str]:
+    """The ``[[effect]]`` table of ``effect`` as lines to be written as comments (uncommented, it reads back)."""
+    return ["[[effect]]", *(f"{key} = {_toml_value(value)}" for key, value in effect.to_dict().items())]
+
+
+def model_toml(kind: str, effects: list[tuple[Effect | None, str]], header: list[str]) -> str:
+    """A model file holding ``effects`` (each with a comment line; None: the comment alone), readable by
+    :func:`load_model`."""
     lines = [f"# {h}" for h in header] + [f"kind = {_toml_value(kind)}", ""]
     for effect, comment in effects:
         if comment:
             lines += [f"# {c}" for c in comment.splitlines()]
+        if effect is None:
+            lines.append("")
+            continue
         lines.append("[[effect]]")
         for key, value in effect.to_dict().items():
             lines.append(f"{key} = {_toml_value(value)}")

@@ -22,6 +22,7 @@ from ..report.build import tool_version  # noqa: E402
 from ..report.html import HtmlPage, figure_png  # noqa: E402
 from ..store.files import write_text_atomic  # noqa: E402
 from .diagnose import Diagnosis, format_params  # noqa: E402
+from .remains import not_named_because, remains  # noqa: E402
 
 CHANNEL_TEXT = {"deviation": "positioning deviation x = reading − target (µm)",
                 "height": "surface height of every point (µm)",
@@ -101,7 +102,7 @@ def channel_sections(page: HtmlPage, ch: ChannelDiagnosis) -> None:
         ("cross-validation folds", o.fold_basis),
     ], digits=4)
     rows = [("model", "", ch.baseline.rms_um, ch.baseline.max_um, ch.baseline_noise.sigma_um)]
-    rows += [(f"+ {s.test.effect.label}", "ambiguous" if s.ambiguous_with else "named", s.fit.rms_um, s.fit.max_um,
+    rows += [(f"+ {s.test.effect.label}", _verdict(ch, s), s.fit.rms_um, s.fit.max_um,
               s.noise.sigma_um) for s in ch.steps]
     page.table(("stage", "", "RMS (µm)", "max |r| (µm)", "noise (µm)"), rows, digits=4, text_columns=(0, 1))
     page.image(figure_png(gap_figure(ch)), "RMS and maximum residual after each added effect; dashed: the noise "
@@ -119,7 +120,8 @@ def channel_sections(page: HtmlPage, ch: ChannelDiagnosis) -> None:
                "Residual of the run under the model (free parameters fitted).")
     before = ch.baseline.residual
     for i, s in enumerate(ch.steps, start=1):
-        verdict = f"ambiguous with {', '.join(s.ambiguous_with)}, not named" if s.ambiguous_with else "named"
+        why = not_named_because(ch, s)
+        verdict = f"{why}, not named" if why else "named"
         page.heading(f"Step {i}: + {s.test.effect.label} ({verdict})", 3)
         page.paragraph(f"{format_params(s.effect, s.fit.se[-1])} (± one standard error). RMS "
                        f"{_rms(before):.4f} → {s.fit.rms_um:.4f} µm, max {np.max(np.abs(before)):.4f} → "
@@ -132,6 +134,13 @@ def channel_sections(page: HtmlPage, ch: ChannelDiagnosis) -> None:
                            f"{s.in_final.p_threshold:.2g}).", "note")
         page.table(EVIDENCE_HEADER, _evidence_rows(s.tested), digits=4, text_columns=(0, 7))
         before = s.fit.residual
+    page.heading("What remains", 3)
+    left = remains(ch)
+    white = not any(v.get("structured") for v in ch.structure.values() if isinstance(v, dict))
+    page.paragraph("The final residual is white: no structure in time order or along the position (α = 0.001)."
+                   if white else "The final residual is not white:")
+    for sentence in left:
+        page.paragraph(sentence, "note")
     page.heading("Candidates after the last step", 3)
     if ch.last_round:
         page.table(EVIDENCE_HEADER, _evidence_rows(ch.last_round), digits=4, text_columns=(0, 7))
@@ -177,3 +186,8 @@ def write_diagnosis_report(d: Diagnosis, path: Path | str) -> Path:
     except OSError as exc:
         raise UserError(f"cannot write the report to {path}: {exc.strerror or exc}") from None
     return path
+
+
+def _verdict(ch: ChannelDiagnosis, step: Any) -> str:
+    return "implausible" if step.implausible else "ambiguous" if step.ambiguous_with else \
+        "named" if ch.is_named(step) else "not named"
