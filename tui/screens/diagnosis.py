@@ -134,7 +134,7 @@ class DiagnosisScreen(Screen):
 
     def compose(self) -> ComposeResult:
         yield Header()
-        yield Static(f"diagnosis of {escape(str(self.run_dir))}", id="diag-title")
+        yield Static(f"diagnosis of {escape(self.run_dir.name)}", id="diag-title")  # the results name its path
         with Horizontal(id="model-row"):
             yield Label("model file", id="model-label")
             yield Input(self.model_path, placeholder="empty: no model (nothing known)", id="model-path",
@@ -205,7 +205,7 @@ class DiagnosisScreen(Screen):
         self.result = result
         table, groups = diagnosis_view(result)
         self.query_one("#diag-title", Static).update(
-            f"diagnosis of {escape(str(self.run_dir))} · {escape(str(result.get('kind', '')))}")
+            f"diagnosis of {escape(self.run_dir.name)} · {escape(str(result.get('kind', '')))}")
         self.query_one("#diag-table", Static).update(table)
         self.query_one("#diag-bars", Bars).show(groups)
         self.query_one("#diag-status", Static).update("")
