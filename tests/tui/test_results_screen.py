@@ -115,6 +115,7 @@ def test_positioning_checks_show_each_value_and_limit(tmp_path: Path) -> None:
 
 def test_no_verdict_without_a_tolerance(tmp_path: Path) -> None:
     run = copy_run(tmp_path, "positioning-x")
+    set_tolerance(run, {})
     assert on_results(run, lambda app, pilot: asyncio.sleep(0, app.screen.query_one("#verdict").display)) is False
 
 
@@ -253,9 +254,14 @@ def test_evaluating_is_shown_while_the_worker_evaluates_and_keys_answer(tmp_path
             await pilot.press("x")
             release.set()
             await wait_for_app(pilot, lambda: getattr(app.screen, "evaluation", None) is not None, what="results")
+            release.clear()
             await pilot.press("m")  # re-processing: the old results stay, the status says what is evaluated
+            await pilot.pause()
             status = widget_text(app, "#written")
-            return plot, summary, status, widget_text(app, "#plot")
+            plot_after = widget_text(app, "#plot")
+            release.set()
+            await wait_for_app(pilot, lambda: not app.screen.evaluating, what="the second evaluation")
+            return plot, summary, status, plot_after
 
     plot, summary, status, plot_after = asyncio.run(main())
     assert plot == "evaluating…" and summary == "evaluating…"

@@ -71,13 +71,14 @@ def verdict_category(verdict: Any) -> str:
     return result.upper() + (" within uncertainty" if within else "")
 
 
-def check_text(c: Any) -> str:
-    """One tolerance check: value, limit and U, e.g. ``straightness (minimum zone line) 3.214 um ≤ 10 um,
-    U 0.405 um (k = 2): pass``."""
+def check_text(c: Any, name: bool = True) -> str:
+    """One tolerance check: value, limit and U, e.g. ``A 3.214 um ≤ limit 10 um · U 0.405 um (k = 2): pass``
+    (``name``: with the quantity and the result; without, for the one check the verdict's title names)."""
     value = "not evaluated" if c.value is None else f"{c.value:.3f} {c.unit}"
     op = "≤" if c.value is None or c.value <= c.tolerance else ">"
     u = "U not estimated" if c.uncertainty is None else f"U {c.uncertainty:.3f} {c.unit} (k = 2)"
-    return f"{c.quantity} {value} {op} limit {c.tolerance:g} {c.unit}, {u}: {c.result}"
+    text = f"{value} {op} limit {c.tolerance:g} {c.unit} · {u}"
+    return f"{c.quantity} {text}: {c.result}" if name else text
 
 
 def straightness_summary(d: dict[str, Any], mc_trials: int | None) -> str:
@@ -86,8 +87,8 @@ def straightness_summary(d: dict[str, Any], mc_trials: int | None) -> str:
     travel = profile[-1]["x_mm"] - profile[0]["x_mm"] if profile else 0.0
     unc = (d.get("uncertainty_um") or {}).get("straightness", {})
     mc = "Monte Carlo off" if mc_trials == 0 else (d.get("uncertainty_um") or {}).get("straightness_method", "")
-    lines = [f"decoupling [b]{d['method']}[/b] · {len(profile)} stations, travel {travel:g} mm · "
-             f"{mc.split(';')[0]}",
+    lines = [f"decoupling [b]{d['method']}[/b] · {len(profile)} stations · {travel:g} mm · "
+             f"{','.join(mc.split(';')[0].split(',')[:2])}",
              f"{'reference line':<16}{'straightness':>14}{'U (k = 2)':>14}"]
     for name, value in d["straightness_um"].items():
         u = f"± {unc[name]:.3f} um" if name in unc else "n/a"
@@ -95,7 +96,7 @@ def straightness_summary(d: dict[str, Any], mc_trials: int | None) -> str:
     rp = d.get("return_pass")
     if rp:
         lines.append(f"return pass: closure {_num(rp.get('closure_um'))} um, drift {_num(rp.get('drift_um_per_h'))} "
-                     "um/h (profile = mean of both passes)")
+                     "um/h, profile = mean of passes")
     return "\n".join(lines)
 
 
@@ -163,6 +164,7 @@ class ResultsScreen(Screen):
         self.model = MODEL_NAMES[0]
         self.written: list[str] = []
         self.evaluation: Any = None
+        self.run: Any = None
         self.evaluating = False
         self.problem = ""
 
@@ -186,6 +188,9 @@ class ResultsScreen(Screen):
         self.show_title()
         self.evaluate()
 
+    def on_resize(self) -> None:
+        self.show_title(self.run)
+
     def show_title(self, run: Any = None) -> None:
         parts = []
         if run is not None:
@@ -198,7 +203,9 @@ class ResultsScreen(Screen):
             if str(m.get("axis") or "").strip():
                 parts.append(f"axis {escape(str(m['axis']))}")
             parts += [f"[{colour}]{escape(status)}[/{colour}]", f"{len(run.points)} points"]
-        title = " · ".join([*parts, escape(str(self.run_dir))])
+        # the run directory's name at 80 columns (one line), its path where there is room
+        where = str(self.run_dir) if self.app.size.width >= 140 else self.run_dir.name
+        title = " · ".join([*parts, escape(where)])
         if self.note:
             title += f"\n[yellow]{escape(self.note)}[/yellow]"
         self.query_one("#run-title", Static).update(title)
@@ -250,6 +257,7 @@ class ResultsScreen(Screen):
         self.kind = run.kind
         self.axis_type = str(run.meta.get("axis_type") or "linear")
         self.evaluation = evaluation
+        self.run = run
         self.evaluating = False
         self.problem = ""
         self.show_title(run)
@@ -279,12 +287,16 @@ class ResultsScreen(Screen):
         self.query_one("#verdict-word", Static).update(
             f"[b {colour}]{big_word(word)}[/]" if word in ("PASS", "FAIL") else f"[b {colour}]NOT\nEVALUATED[/]")
         head = f"[b {colour}]{category}[/]"
-        if "within uncertainty" in category:
-            head += " · within U of the limit: not proven (ISO 14253-1)"
+        note = "within U of the limit: not proven (ISO 14253-1)" if "within uncertainty" in category else ""
         checks = sorted(verdict.checks, key=lambda c: c.result != verdict.result)  # the deciding ones first
-        lines = [head, *(escape(check_text(c)) for c in checks[:3])]
-        if len(checks) > 3:
-            lines.append(f"and {len(checks) - 3} more: " + ", ".join(f"{c.quantity} {c.result}" for c in checks[3:]))
+        if len(checks) == 1:  # the title names the quantity, the next line its value, limit and U
+            lines = [f"{head} · {escape(checks[0].quantity)}", escape(check_text(checks[0], name=False))]
+            lines += [note] if note else []
+        else:
+            lines = [head + (f" · {note}" if note else ""), *(escape(check_text(c)) for c in checks[:2])]
+            if len(checks) > 2:
+                lines.append(f"and {len(checks) - 2} more: " + ", ".join(f"{c.quantity} {c.result}"
+                                                                         for c in checks[2:]))
         self.query_one("#verdict-text", Static).update("\n".join(lines))
 
     def show_options(self) -> None:
@@ -375,16 +387,25 @@ class ResultsScreen(Screen):
 
 
 def straightness_plot(d: dict[str, Any]) -> PlotData:
-    pts = [(p["x_mm"], p["height_um"]) for p in d["profile"]]
+    """The profile and its reference lines, heights from the least-squares line: the laser's arbitrary tilt
+    (tens of um over the travel) would otherwise hide a form of a few um."""
+    lines = d.get("reference_lines", {})
+    lsq = lines.get("least_squares")
+
+    def base(x: float) -> float:
+        return lsq["intercept_um"] + lsq["slope_um_per_mm"] * x if lsq else 0.0
+
+    pts = [(p["x_mm"], p["height_um"] - base(p["x_mm"])) for p in d["profile"]]
     series = []
     if pts:
         x0, x1 = pts[0][0], pts[-1][0]
-        for name, line in d.get("reference_lines", {}).items():
+        for name, line in lines.items():
             s, c = line["slope_um_per_mm"], line["intercept_um"]
-            series.append(Series([(x0, c + s * x0), (x1, c + s * x1)], LINE_STYLES.get(name, "white"),
+            series.append(Series([(x, c + s * x - base(x)) for x in (x0, x1)], LINE_STYLES.get(name, "white"),
                                  LINE_NAMES.get(name, name), join=True))
     series.append(Series(pts, "bold cyan", "profile", join=True))  # drawn last: on top of the lines
-    return PlotData(series, x_label="x (mm) · height (um)", y_label="um", legend=True)
+    what = "height from the least-squares line" if lsq else "height"
+    return PlotData(series, x_label=f"x (mm) · {what} (um)", y_label="um", legend=True)
 
 
 def positioning_plot(evaluation: Any) -> PlotData:
