@@ -231,17 +231,17 @@ def test_written_files_do_not_push_the_title_off_the_screen(tmp_path: Path) -> N
 # -- evaluating -----------------------------------------------------------------------------------------------
 def test_evaluating_is_shown_while_the_worker_evaluates_and_keys_answer(tmp_path: Path,
                                                                          monkeypatch: pytest.MonkeyPatch) -> None:
-    import tui.screens.results as results
+    import saved_runs.evaluation.evaluate as evaluate  # the screen's worker calls it
 
     run = copy_run(tmp_path, "straightness-bed")
     release = threading.Event()
-    real = results.process_run_dir
+    real = evaluate.process_run_dir
 
     def slow(*args: Any, **kw: Any) -> Any:
         release.wait(30)
         return real(*args, **kw)
 
-    monkeypatch.setattr(results, "process_run_dir", slow)
+    monkeypatch.setattr(evaluate, "process_run_dir", slow)
 
     async def main() -> tuple[str, str, str, str]:
         app = GuidewayApp(runs_dir=run.parent, start="runs")
@@ -350,3 +350,15 @@ def test_escape_goes_back_to_the_results() -> None:
 
     field, name = on_results(ROOT / RUNS / "positioning-x", check)
     assert field.endswith("x") and name == "ResultsScreen"
+
+
+def test_the_screens_load_without_the_evaluation_stack() -> None:
+    # numpy, pandas, scipy and the evaluators take seconds to import: the workers load them, so opening the
+    # results or the diagnosis never freezes the screen before "evaluating…" is shown
+    import subprocess
+    import sys
+
+    code = ("import sys, tui.app, tui.screens.results, tui.screens.diagnosis; "
+            "print(sorted(m for m in ('pandas', 'scipy', 'numpy') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
+    assert out.stdout.strip() == "[]"

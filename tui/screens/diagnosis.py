@@ -17,7 +17,6 @@ from textual.screen import Screen
 from textual.widgets import Footer, Header, Input, Label, Static
 from textual.worker import get_current_worker
 
-from saved_runs.diagnosis.diagnose import diagnose_run
 from saved_runs.errors import EXPECTED_ERRORS
 
 from ..widgets.bars import Bar, BarGroup, Bars
@@ -183,6 +182,8 @@ class DiagnosisScreen(Screen):
     def _diagnose(self, model: str | None) -> None:
         worker = get_current_worker()
         try:
+            from saved_runs.diagnosis.diagnose import diagnose_run  # seconds to load: in the worker, not the UI
+
             result = diagnose_run(self.run_dir, model).to_dict()
         except EXPECTED_ERRORS as exc:
             message = str(exc)

@@ -19,11 +19,8 @@ from textual.widgets import Footer, Header, Static
 from textual.worker import get_current_worker
 
 from saved_runs.errors import EXPECTED_ERRORS
-from saved_runs.evaluation.evaluate import process_run_dir
 from saved_runs.evaluation.options import EDITIONS, METHODS
-from saved_runs.export.build import write_export
 from saved_runs.export.options import FORMATS, MODEL_NAMES, ExportOptions
-from saved_runs.report.build import build_report
 
 from ..widgets.plot import Plot, PlotData, Series
 
@@ -237,6 +234,10 @@ class ResultsScreen(Screen):
     def _evaluate(self, options: dict[str, Any]) -> None:
         worker = get_current_worker()
         try:
+            # imported here, in the worker: numpy, pandas, scipy and the evaluators take seconds to load, and the
+            # screen answers keys meanwhile
+            from saved_runs.evaluation.evaluate import process_run_dir
+
             run, evaluation = process_run_dir(self.run_dir, **options)
         except EXPECTED_ERRORS as exc:
             if not worker.is_cancelled:
@@ -357,6 +358,8 @@ class ResultsScreen(Screen):
     # -- files ------------------------------------------------------------------------------------
     @work(thread=True, group="files", exit_on_error=False)
     def action_report(self) -> None:
+        from saved_runs.report.build import build_report
+
         self._written(lambda: build_report(self.run_dir, **self.options()))
 
     @work(thread=True, group="files", exit_on_error=False)
@@ -367,6 +370,8 @@ class ResultsScreen(Screen):
     @work(thread=True, group="files", exit_on_error=False)
     def action_export(self, fmt: str) -> None:
         if self.kind == "positioning":
+            from saved_runs.export.build import write_export
+
             def write() -> tuple[Path, str]:
                 _, export, path = write_export(self.run_dir, ExportOptions(fmt=fmt, model=self.model))
                 return path, residual_text(export.to_dict())  # the same object as guideway export --json
