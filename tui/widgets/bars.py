@@ -76,8 +76,8 @@ class Bars(Widget):
                 cells = bar_cells(b.value, scale, width).ljust(width)
                 out.append("\n" + f"{b.label[:label_w - 1]:<{label_w}}")
                 for i, ch in enumerate(cells):
-                    if i == ref and ch == " ":
-                        out.append("┆", style="dim")
+                    if i == ref:  # the reference, inside the bar too
+                        out.append("┆", style="dim" if ch == " " else f"bold on {b.style}")
                     else:
                         out.append(ch, style=b.style)
                 out.append(f" {b.value:>{VALUE_WIDTH - 1}.3f}" if math.isfinite(b.value) else " n/a")

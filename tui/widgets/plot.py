@@ -116,7 +116,8 @@ class Plot(Widget):
         for s in self.data.series:
             pts = sorted(s.points) if s.join else s.points
             for (xa, ya), (xb, yb) in zip(pts, pts[1:], strict=False) if s.join else ():
-                n = max(2, int(abs(xb - xa) / (x1 - x0) * cols) + 1)
+                # a dot per column and per row the segment crosses: steep segments stay lines, not dots
+                n = max(2, int(max(abs(xb - xa) / (x1 - x0) * cols, abs(yb - ya) / (y1 - y0) * rows)) + 1)
                 for i in range(n + 1):
                     t = i / n
                     dot(xa + (xb - xa) * t, ya + (yb - ya) * t, s.style)
