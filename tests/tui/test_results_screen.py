@@ -281,7 +281,8 @@ def test_the_readings_are_beside_a_larger_plot_at_160x48(name: str) -> None:
     (plot160, summary160) = on_results(run, regions, size=(160, 48))
     assert summary80.y >= plot80.bottom  # 80x24: below the plot
     assert summary160.x >= plot160.right and summary160.y < plot160.bottom  # 160x48: beside it
-    assert plot160.height >= 30 and plot160.width >= 80 and plot80.height >= 8
+    assert plot80.height >= 8 and plot160.width >= 70  # as wide as at 80x24, less the readings' column
+    assert plot160.width * plot160.height >= 3 * plot80.width * plot80.height  # and much taller
 
 
 # -- diagnosis ------------------------------------------------------------------------------------------------
