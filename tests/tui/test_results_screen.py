@@ -365,3 +365,25 @@ def test_the_screens_load_without_the_evaluation_stack() -> None:
             "print(sorted(m for m in ('pandas', 'scipy', 'numpy') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_the_diagnosis_view_reads_the_json_defensively() -> None:
+    # issue 19 keeps an effect's own channel (an Abbe error's pitch) in "channel" and the diagnosis channel in a
+    # key of its own; labels may be missing; an RMS of 0 (a noise-free fit) is a value, not a gap
+    from tui.screens.diagnosis import diagnosis_view
+
+    d = {"channel": "deviation", "named": [], "ambiguous": [["abbe", "linear_scale"]],
+         "channels": {"deviation": {"points": 12, "baseline": {"rms_um": 2.0, "max_um": 3.0},
+                                    "final": {"rms_um": 0.0, "max_um": 0.0}, "noise_um": 0.5, "named": []}},
+         "steps": [{"effect": "abbe", "channel": "pitch", "diagnosis_channel": "deviation", "rms_um": 0.0,
+                    "max_um": 0.0, "params": {"offset_mm": 12.5, "channel": "pitch"}, "se": {"offset_mm": 0.25},
+                    "evidence": {"delta_bic": -40.0, "p_value": 1e-9, "significant": True},
+                    "ambiguous_with": ["linear_scale"]}]}
+    table, groups = diagnosis_view(d)
+    rows = table.splitlines()
+    step = next(r for r in rows if r.startswith("1 "))
+    assert step.split()[:4] == ["1", "abbe", "0.000", "0.000"] and "ambiguous: linear_scale" in step
+    assert "offset_mm = 12.5 ± 0.25, channel = pitch" in table
+    assert "ambiguous, cannot be told apart on this run: abbe / linear_scale" in table
+    assert [(b.label, b.value) for b in groups[0].bars] == [("baseline", 2.0), ("+ abbe", 0.0), ("final", 0.0)]
+    assert groups[0].reference == 0.5

@@ -25,7 +25,16 @@ STEP_HEAD = f"{'step':<6}{'effect':<16}{'RMS um':>8}{'max um':>8}{'ΔBIC':>8}{'p
 
 
 def _f(v: Any, fmt: str) -> str:
-    return format(v, fmt) if isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) else "-"
+    """``v`` formatted with ``fmt``; a missing value as "-" in the same width (the table's columns stay)."""
+    if isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v):
+        return format(v, fmt)
+    width = fmt.split(".")[0]
+    return "-".rjust(int(width) if width.isdigit() else 1)
+
+
+def _value(v: Any) -> float:
+    """A JSON number as a float (None, the JSON of NaN, and anything else: NaN; 0 stays 0)."""
+    return float(v) if isinstance(v, int | float) and not isinstance(v, bool) else math.nan
 
 
 def params_text(params: dict[str, Any], se: dict[str, Any]) -> str:
@@ -85,7 +94,7 @@ def diagnosis_view(d: dict[str, Any]) -> tuple[str, list[BarGroup]]:
         lines.append(f"[b]{escape(name)} channel[/b] · {ch.get('points', '?')} points · noise {_f(noise, '.3f')} um")
         lines.append(f"[dim]{STEP_HEAD}[/dim]")
         lines.append(f"{'base':<6}{'the model':<16}{_f(base.get('rms_um'), '8.3f')}{_f(base.get('max_um'), '8.3f')}")
-        bars = [Bar("baseline", float(base.get("rms_um") or math.nan), "red")]
+        bars = [Bar("baseline", _value(base.get("rms_um")), "red")]
         for i, s in enumerate(mine, start=1):
             ev = s.get("evidence") or {}
             label = step_label(s)
@@ -94,12 +103,12 @@ def diagnosis_view(d: dict[str, Any]) -> tuple[str, list[BarGroup]]:
             detail = params_text(s.get("params") or {}, s.get("se") or {})
             if detail:
                 lines.append(f"[dim]{'':<6}{escape(detail)}[/dim]")
-            bars.append(Bar(f"+ {label}", float(s.get("rms_um") or math.nan),
+            bars.append(Bar(f"+ {label}", _value(s.get("rms_um")),
                             "yellow" if s.get("ambiguous_with") else "cyan"))
         if not mine:
             lines.append(f"{'':<6}[green]nothing significant is missing from the model[/green]")
         lines.append(f"{'final':<22}{_f(final.get('rms_um'), '8.3f')}{_f(final.get('max_um'), '8.3f')}")
-        bars.append(Bar("final", float(final.get("rms_um") or math.nan), "green"))
+        bars.append(Bar("final", _value(final.get("rms_um")), "green"))
         groups.append(BarGroup(f"{name}: residual RMS um", bars, noise if isinstance(noise, int | float) else None,
                                f"noise {_f(noise, '.3f')} um"))
     named_all = d.get("named") or []
