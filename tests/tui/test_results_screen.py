@@ -299,7 +299,8 @@ def diagnose(run: Path, size: tuple[int, int] = (80, 24), model: str | None = No
         await wait_for_app(pilot, lambda: not screen.running and (screen.result or screen.error),
                            what="the diagnosis", timeout_s=60)
         await pilot.pause()
-        return screen.result, screen_lines(app), widget_text(app, "#diag-status")
+        status = screen.query_one("#diag-status")
+        return screen.result, screen_lines(app), widget_text(app, "#diag-status") if status.display else ""
 
     return on_results(run, check, size)
 
@@ -338,8 +339,9 @@ def test_a_diagnosis_error_is_one_line(tmp_path: Path) -> None:
     _, _, status = diagnose(ROOT / RUNS / "positioning-x", model=str(model))
     assert "\n" not in status.strip() and status.startswith("cannot diagnose: ")
     assert "straightness model" in status and "positioning run" in status
-    _, _, status = diagnose(ROOT / RUNS / "positioning-x", model=str(tmp_path / "missing.toml"))
+    _, lines, status = diagnose(ROOT / RUNS / "positioning-x", model=str(tmp_path / "missing.toml"))
     assert status.startswith(f"cannot diagnose: model file {tmp_path / 'missing.toml'}: no such file")
+    assert any(ln.startswith(" cannot diagnose: model file ") for ln in lines)  # on the screen, above the footer
 
 
 def test_escape_goes_back_to_the_results() -> None:

@@ -183,8 +183,7 @@ class DiagnosisScreen(Screen):
             return
         self.running = True
         self.error = ""
-        self.query_one("#diag-status", Static).update(
-            f"[yellow]diagnosing against {escape(path or 'no model (nothing known)')}…[/yellow]")
+        self.status(f"[yellow]diagnosing against {escape(path or 'no model (nothing known)')}…[/yellow]")
         self._diagnose(path or None)
 
     @work(thread=True, exclusive=True, group="diagnose", exit_on_error=False)
@@ -205,10 +204,16 @@ class DiagnosisScreen(Screen):
         if not worker.is_cancelled:
             self.app.call_from_thread(self.show_error, message)
 
+    def status(self, text: str) -> None:
+        """The status line under the table: what runs, or the one-line error; hidden when there is nothing."""
+        line = self.query_one("#diag-status", Static)
+        line.update(text)
+        line.display = bool(text)
+
     def show_error(self, message: str) -> None:
         self.running = False
         self.error = message
-        self.query_one("#diag-status", Static).update(f"[red]cannot diagnose: {escape(message)}[/red]")
+        self.status(f"[red]cannot diagnose: {escape(message)}[/red]")
 
     def show(self, result: dict[str, Any]) -> None:
         self.running = False
@@ -218,4 +223,4 @@ class DiagnosisScreen(Screen):
             f"diagnosis of {escape(self.run_dir.name)} · {escape(str(result.get('kind', '')))}")
         self.query_one("#diag-table", Static).update(table)
         self.query_one("#diag-bars", Bars).show(groups)
-        self.query_one("#diag-status", Static).update("")
+        self.status("")
