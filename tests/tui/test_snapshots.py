@@ -127,5 +127,17 @@ def test_results_positioning(snap_compare, size) -> None:  # noqa: ANN001
 
 
 @pytest.mark.parametrize("size", SIZES)
+def test_diagnosis(snap_compare, size) -> None:  # noqa: ANN001
+    async def run_before(pilot) -> None:  # noqa: ANN001
+        await results("positioning-x")(pilot)
+        await pilot.press("d")  # against docs/model-positioning.toml, the default of a positioning run
+        await wait_for_app(pilot, lambda: getattr(pilot.app.screen, "result", None) is not None,
+                           what="the diagnosis", timeout_s=60)
+        await pilot.pause()
+
+    assert snap_compare(app(), terminal_size=size, run_before=run_before)
+
+
+@pytest.mark.parametrize("size", SIZES)
 def test_runs(snap_compare, size) -> None:  # noqa: ANN001
     assert snap_compare(app(), terminal_size=size)

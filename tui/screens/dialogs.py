@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 from typing import TYPE_CHECKING
 
 from textual.app import ComposeResult
@@ -92,7 +93,7 @@ class HelpScreen(ModalScreen[None]):
         rows = []
         seen = set()
         for b in [*getattr(self.source, "BINDINGS", []), *self.app_bindings]:
-            if not isinstance(b, Binding) or not b.description or b.description in seen:
+            if not isinstance(b, Binding) or not b.description or b.description in seen or not self.live(b):
                 continue
             seen.add(b.description)
             rows.append(f"  [b]{b.key_display or b.key:<12}[/b] {b.description}")
@@ -101,6 +102,17 @@ class HelpScreen(ModalScreen[None]):
             yield Static(f"Keys: {name}", id="dialog-title")
             yield Static("\n".join(rows), id="dialog-text")
             yield Static("any key closes this help", id="dialog-keys")
+
+    def live(self, binding: Binding) -> bool:
+        """Whether the key does something on the source screen now (its ``check_action``): help lists only those."""
+        if binding.action.startswith("app."):
+            return True
+        name, _, args = binding.action.partition("(")
+        try:
+            params = tuple(ast.literal_eval(f"({args[:-1]},)")) if args else ()
+        except (ValueError, SyntaxError):
+            params = ()
+        return bool(self.source.check_action(name, params))
 
     def on_key(self, event) -> None:  # noqa: ANN001
         event.stop()

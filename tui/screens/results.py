@@ -1,5 +1,7 @@
-"""Results of a run (when it ends, or any saved run): the evaluation of ``guideway process``, the
-HTML report and the compensation tables, re-processed with other options by a key."""
+"""Results of a run (when it ends, or any saved run): the evaluation of ``guideway process`` with the
+``[tolerance]`` verdict shown large, the HTML report and the compensation tables (with the residual they
+leave, as ``guideway export --json`` gives it), re-processed with other options by a key; ``d`` opens
+the diagnosis of the run (tui/screens/diagnosis.py)."""
 
 from __future__ import annotations
 
@@ -10,17 +12,15 @@ from typing import Any
 from textual import work
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.containers import VerticalScroll
+from textual.containers import Horizontal, VerticalScroll
 from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import Footer, Header, Static
+from textual.worker import get_current_worker
 
 from saved_runs.errors import EXPECTED_ERRORS
-from saved_runs.evaluation.evaluate import process_run_dir
 from saved_runs.evaluation.options import EDITIONS, METHODS
-from saved_runs.export.build import write_export
 from saved_runs.export.options import FORMATS, MODEL_NAMES, ExportOptions
-from saved_runs.report.build import build_report
 
 from ..widgets.plot import Plot, PlotData, Series
 
@@ -32,10 +32,50 @@ ISO_ROWS = (("B", "reversal B"), ("R_up", "repeatability R ↑"), ("R_down", "re
             ("R", "repeatability R"), ("E_up", "systematic E ↑"), ("E_down", "systematic E ↓"),
             ("E", "systematic E"), ("M", "mean positional M"), ("A_up", "accuracy A ↑"),
             ("A_down", "accuracy A ↓"), ("A", "accuracy A"))
+# what each key needs: a run of that kind (None: any kind, once evaluated)
+KIND_ACTIONS = {"method": "straightness", "uncertainty": "straightness", "coverage": "positioning",
+                "edition": "positioning", "model": "positioning", "export": "positioning"}
+# the residual columns of ``guideway export --json`` (saved_runs/export/residuals.py), as the screen names them
+RESIDUAL_LABELS = (("in_sample", "in-sample"), ("leave_one_run_out", "run held out"),
+                   ("leave_one_target_out", "target held out"))
+
+# a two-row block font for the verdict: large enough to read from the machine
+BIG = {"P": ("█▀█", "█▀▀"), "A": ("▄▀█", "█▀█"), "S": ("█▀", "▄█"), "F": ("█▀▀", "█▀ "), "I": ("█", "█"),
+       "L": ("█  ", "█▄▄")}
+
+
+def big_word(word: str) -> str:
+    """``word`` (letters of :data:`BIG`) in the two-row block font, letters one column apart."""
+    return "\n".join(" ".join(BIG[c][row] for c in word) for row in range(2))
 
 
 def _num(v: Any, digits: int = 3) -> str:
     return f"{v:.{digits}f}" if isinstance(v, int | float) and math.isfinite(v) else "n/a"
+
+
+def verdict_category(verdict: Any) -> str:
+    """The verdict of saved_runs.evaluation.tolerance as the screen names it: ``PASS``, ``FAIL``, ``PASS within
+    uncertainty`` / ``FAIL within uncertainty`` (a deciding check lies within its U of the limit: conformance,
+    or non-conformance, is not proven, ISO 14253-1) or ``NOT EVALUATED``."""
+    result = verdict.result
+    if result not in ("pass", "fail"):
+        return "NOT EVALUATED"
+    # pass: every check decides, so any one within U leaves it unproven; fail: unproven only when every
+    # failing check is within its U (one clear failure proves non-conformance)
+    deciding = [c for c in verdict.checks if c.result == result]
+    within = all(c.within_uncertainty for c in deciding) if result == "fail" else \
+        any(c.within_uncertainty for c in deciding)
+    return result.upper() + (" within uncertainty" if within else "")
+
+
+def check_text(c: Any, name: bool = True) -> str:
+    """One tolerance check: value, limit and U, e.g. ``A 3.214 um ≤ limit 10 um · U 0.405 um (k = 2): pass``
+    (``name``: with the quantity and the result; without, for the one check the verdict's title names)."""
+    value = "not evaluated" if c.value is None else f"{c.value:.3f} {c.unit}"
+    op = "≤" if c.value is None or c.value <= c.tolerance else ">"
+    u = "U not estimated" if c.uncertainty is None else f"U {c.uncertainty:.3f} {c.unit} (k = 2)"
+    text = f"{value} {op} limit {c.tolerance:g} {c.unit} · {u}"
+    return f"{c.quantity} {text}: {c.result}" if name else text
 
 
 def straightness_summary(d: dict[str, Any], mc_trials: int | None) -> str:
@@ -44,8 +84,8 @@ def straightness_summary(d: dict[str, Any], mc_trials: int | None) -> str:
     travel = profile[-1]["x_mm"] - profile[0]["x_mm"] if profile else 0.0
     unc = (d.get("uncertainty_um") or {}).get("straightness", {})
     mc = "Monte Carlo off" if mc_trials == 0 else (d.get("uncertainty_um") or {}).get("straightness_method", "")
-    lines = [f"decoupling [b]{d['method']}[/b] · {len(profile)} stations, travel {travel:g} mm · "
-             f"{mc.split(';')[0]}",
+    lines = [f"decoupling [b]{d['method']}[/b] · {len(profile)} stations · {travel:g} mm · "
+             f"{','.join(mc.split(';')[0].split(',')[:2])}",
              f"{'reference line':<16}{'straightness':>14}{'U (k = 2)':>14}"]
     for name, value in d["straightness_um"].items():
         u = f"± {unc[name]:.3f} um" if name in unc else "n/a"
@@ -53,7 +93,7 @@ def straightness_summary(d: dict[str, Any], mc_trials: int | None) -> str:
     rp = d.get("return_pass")
     if rp:
         lines.append(f"return pass: closure {_num(rp.get('closure_um'))} um, drift {_num(rp.get('drift_um_per_h'))} "
-                     "um/h (profile = mean of both passes)")
+                     "um/h, profile = mean of passes")
     return "\n".join(lines)
 
 
@@ -61,16 +101,40 @@ def positioning_summary(d: dict[str, Any]) -> str:
     """The ISO 230-2 axis values of ``guideway process --json`` (``d``) as the screen shows them."""
     iso = d["iso230_2"]
     unit = d["unit"]
-    head = (f"ISO 230-2 ({d.get('edition', '')}, k = {d.get('k', 2):g}) · {d['axis_type']} axis · "
-            f"{len(d['targets'])} targets · runs ↑/↓ {d.get('runs_up')}/{d.get('runs_down')} · {unit}")
+    head = (f"{d.get('edition') or 'ISO 230-2'}, k = {d.get('k', 2):g} · {d['axis_type']} axis · "
+            f"{len(d['targets'])} targets · runs ↑{d.get('runs_up')} ↓{d.get('runs_down')} · {unit}")
     cells = [f"{label:<20}{_num(iso.get(q)):>9}" for q, label in ISO_ROWS]
     rows = [cells[i] + "   " + cells[i + 6] if i + 6 < len(cells) else cells[i] for i in range(6)]
     return "\n".join([head, *rows])
 
 
+def residual_text(export: dict[str, Any]) -> str:
+    """The residual a compensation table leaves, from ``guideway export --json`` (``export``): RMS / max of the
+    chosen model in-sample and cross-validated (docs/compensation.md), one line."""
+    unit = export.get("unit", "um")
+    model = export.get("model", "")
+    res = (export.get("residuals") or {}).get(model) or {}
+    parts = []
+    for key, label in RESIDUAL_LABELS:
+        o = res.get(key) or {}
+        rms, mx = o.get(f"rms_{unit}"), o.get(f"max_{unit}")
+        parts.append(f"{label} {_num(rms)} / {_num(mx)}" if rms is not None else f"{label} n/a")
+    return f"residual ({model}, RMS / max {unit}): " + " · ".join(parts)
+
+
+def default_model_path(run_dir: Path, kind: str) -> str:
+    """The model a diagnosis starts from: the run's own (``RUN_DIR/model.toml``, as ``guideway diagnose --out``
+    writes it) or the documented example of its kind (``docs/model-<kind>.toml``), "" (no model) if neither."""
+    for path in (run_dir / "model.toml", Path("docs") / f"model-{kind}.toml"):
+        if path.is_file():
+            return str(path)
+    return ""
+
+
 class ResultsScreen(Screen):
     SCREEN_NAME = "Results"
     SUB_TITLE = SCREEN_NAME
+    HORIZONTAL_BREAKPOINTS = [(0, "-narrow"), (140, "-wide")]
     BINDINGS = [Binding("h", "report", "report"), Binding("w", "write", "results/", show=False),
                 Binding("m", "method", "decoupling method", show=False),
                 Binding("u", "uncertainty", "Monte Carlo trials", show=False),
@@ -81,6 +145,7 @@ class ResultsScreen(Screen):
                 Binding("2", "export('fanuc')", "Fanuc table", show=False),
                 Binding("3", "export('siemens')", "Siemens table", show=False),
                 Binding("4", "export('csv')", "CSV table", show=False),
+                Binding("d", "diagnose", "diagnose"),
                 Binding("f3", "app.runs", "runs"), Binding("f2", "app.setup", "set-up")]
 
     def __init__(self, run_dir: Path, note: str = "") -> None:
@@ -88,6 +153,7 @@ class ResultsScreen(Screen):
         self.run_dir = Path(run_dir)
         self.note = note
         self.kind = ""
+        self.axis_type = ""
         self.method = METHODS[0]
         self.mc_index = 0
         self.k_index = 0
@@ -95,21 +161,51 @@ class ResultsScreen(Screen):
         self.model = MODEL_NAMES[0]
         self.written: list[str] = []
         self.evaluation: Any = None
+        self.run: Any = None
+        self.evaluating = False
+        self.problem = ""
 
     def compose(self) -> ComposeResult:
         yield Header()
-        with VerticalScroll(id="results-body"):
-            yield Static(id="run-title")
+        yield Static(id="run-title")
+        with Horizontal(id="verdict"):
+            yield Static(id="verdict-word")
+            yield Static(id="verdict-text")
+        with Horizontal(id="results-main"):
             yield Plot(id="plot")
-            yield Static("evaluating...", id="summary")
-            yield Static(id="options")
-            yield Static(id="written")
+            with VerticalScroll(id="results-side"):
+                yield Static("evaluating…", id="summary")
+                yield Static(id="options")
+        yield Static(id="written")
         yield Footer()
 
     def on_mount(self) -> None:
-        self.query_one("#run-title", Static).update(escape(str(self.run_dir)) + (
-            f"\n[yellow]{escape(self.note)}[/yellow]" if self.note else ""))
+        self.query_one("#plot", Plot).empty_text = "evaluating…"
+        self.query_one("#verdict").display = False
+        self.show_title()
         self.evaluate()
+
+    def on_resize(self) -> None:
+        self.show_title(self.run)
+
+    def show_title(self, run: Any = None) -> None:
+        parts = []
+        if run is not None:
+            m = run.meta
+            status = m.get("status", "")
+            colour = "green" if status == "complete" else "yellow"
+            parts = [f"[b]{escape(run.kind)}[/b]"]
+            if str(m.get("machine") or "").strip():  # an empty machine name is left out, not shown as "machine"
+                parts.append(escape(str(m["machine"])))
+            if str(m.get("axis") or "").strip():
+                parts.append(f"axis {escape(str(m['axis']))}")
+            parts += [f"[{colour}]{escape(status)}[/{colour}]", f"{len(run.points)} points"]
+        # the run directory's name at 80 columns (one line), its path where there is room
+        where = str(self.run_dir) if self.app.size.width >= 140 else self.run_dir.name
+        title = " · ".join([*parts, escape(where)])
+        if self.note:
+            title += f"\n[yellow]{escape(self.note)}[/yellow]"
+        self.query_one("#run-title", Static).update(title)
 
     def options(self) -> dict[str, Any]:
         if self.kind == "straightness":
@@ -118,52 +214,114 @@ class ResultsScreen(Screen):
             return {"k": K_CHOICES[self.k_index], "edition": self.edition}
         return {}
 
-    @work(thread=True, exclusive=True, group="evaluate", exit_on_error=False)
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        """Only the keys that do something on this run are live (footer and help list only those)."""
+        if action in KIND_ACTIONS:
+            return self.kind == KIND_ACTIONS[action]
+        if action == "write":
+            return self.evaluation is not None
+        if action == "diagnose":  # the diagnosis covers straightness and linear positioning runs
+            return self.kind == "straightness" or (self.kind == "positioning" and self.axis_type == "linear")
+        return True
+
     def evaluate(self) -> None:
+        """Evaluate (again) with the current options in a worker; the screen says so meanwhile."""
+        self.evaluating = True
+        self.show_options()
+        self._evaluate(self.options())
+
+    @work(thread=True, exclusive=True, group="evaluate", exit_on_error=False)
+    def _evaluate(self, options: dict[str, Any]) -> None:
+        worker = get_current_worker()
         try:
-            run, evaluation = process_run_dir(self.run_dir, **self.options())
+            # imported here, in the worker: numpy, pandas, scipy and the evaluators take seconds to load, and the
+            # screen answers keys meanwhile
+            from saved_runs.evaluation.evaluate import process_run_dir
+
+            run, evaluation = process_run_dir(self.run_dir, **options)
         except EXPECTED_ERRORS as exc:
-            self.app.call_from_thread(self.show_problem, str(exc))
+            if not worker.is_cancelled:
+                self.app.call_from_thread(self.show_problem, str(exc))
             return
-        self.app.call_from_thread(self.show, run, evaluation)
+        if not worker.is_cancelled:  # a newer evaluation (another option) replaces this one
+            self.app.call_from_thread(self.show, run, evaluation)
 
     def show_problem(self, text: str) -> None:
+        self.evaluating = False
+        self.problem = text
+        self.query_one("#plot", Plot).empty_text = "not evaluated"
+        self.query_one("#plot", Plot).refresh()
         self.query_one("#summary", Static).update(f"[red]not evaluated: {escape(text)}[/red]")
+        self.show_options()
 
     def show(self, run: Any, evaluation: Any) -> None:
         self.kind = run.kind
+        self.axis_type = str(run.meta.get("axis_type") or "linear")
         self.evaluation = evaluation
-        m = run.meta
-        status = m.get("status", "")
-        colour = "green" if status == "complete" else "yellow"
-        title = (f"[b]{escape(run.kind)}[/b] · {escape(m.get('machine') or 'machine')} · axis "
-                 f"{escape(m.get('axis') or '-')} · [{colour}]{escape(status)}[/{colour}] · {len(run.points)} points · "
-                 f"{escape(str(self.run_dir))}")
-        if self.note:
-            title += f"\n[yellow]{escape(self.note)}[/yellow]"
-        self.query_one("#run-title", Static).update(title)
+        self.run = run
+        self.evaluating = False
+        self.problem = ""
+        self.show_title(run)
         d = evaluation.to_dict()
         plot = self.query_one("#plot", Plot)
+        plot.empty_text = "no points to plot"
         if run.kind == "straightness":
             plot.show(straightness_plot(d))
             self.query_one("#summary", Static).update(straightness_summary(d, MC_CHOICES[self.mc_index]))
         else:
             plot.show(positioning_plot(evaluation))
             self.query_one("#summary", Static).update(positioning_summary(d))
+        self.show_verdict(getattr(evaluation, "verdict", None))
         self.show_options()
+        self.refresh_bindings()
+
+    def show_verdict(self, verdict: Any) -> None:
+        """The ``[tolerance]`` verdict, large: PASS / FAIL (within uncertainty) with value, limit and U."""
+        box = self.query_one("#verdict")
+        box.display = verdict is not None
+        if verdict is None:
+            return
+        category = verdict_category(verdict)
+        colour = "green" if category == "PASS" else "red" if category == "FAIL" else "yellow"
+        box.set_classes(colour)
+        word = category.split()[0]
+        self.query_one("#verdict-word", Static).update(
+            f"[b {colour}]{big_word(word)}[/]" if word in ("PASS", "FAIL") else f"[b {colour}]NOT\nEVALUATED[/]")
+        head = f"[b {colour}]{category}[/]"
+        note = "within U of the limit: not proven (ISO 14253-1)" if "within uncertainty" in category else ""
+        checks = sorted(verdict.checks, key=lambda c: c.result != verdict.result)  # the deciding ones first
+        if len(checks) == 1:  # the title names the quantity, the next line its value, limit and U
+            lines = [f"{head} · {escape(checks[0].quantity)}", escape(check_text(checks[0], name=False))]
+            lines += [note] if note else []
+        else:
+            lines = [head + (f" · {note}" if note else ""), *(escape(check_text(c)) for c in checks[:2])]
+            if len(checks) > 2:
+                lines.append(f"and {len(checks) - 2} more: " + ", ".join(f"{c.quantity} {c.result}"
+                                                                         for c in checks[2:]))
+        self.query_one("#verdict-text", Static).update("\n".join(lines))
 
     def show_options(self) -> None:
         if self.kind == "straightness":
             mc = MC_CHOICES[self.mc_index]
             text = (f"[b]m[/b] method {self.method}   [b]u[/b] Monte Carlo "
-                    f"{'default' if mc is None else 'off' if mc == 0 else mc}   [b]h[/b] report   [b]w[/b] results/")
-        else:
+                    f"{'default' if mc is None else 'off' if mc == 0 else mc}   [b]h[/b] report   [b]w[/b] results/"
+                    "   [b]d[/b] diagnose")
+        elif self.kind == "positioning":
             text = (f"[b]k[/b] k = {K_CHOICES[self.k_index]:g}   [b]e[/b] {self.edition}   [b]c[/b] model {self.model}"
-                    f"   [b]1-4[/b] {'/'.join(FORMATS)}   [b]h[/b] report")
+                    f"   [b]1-4[/b] {'/'.join(FORMATS)}   [b]h[/b] report   [b]w[/b] results/"
+                    + ("   [b]d[/b] diagnose" if self.axis_type == "linear" else ""))
+        else:
+            text = ""
         self.query_one("#options", Static).update(text)
-        self.query_one("#written", Static).update("\n".join(f"written: {escape(p)}" for p in self.written[-4:]))
-        if self.written:
-            self.query_one("#results-body", VerticalScroll).scroll_end(animate=False)
+        status = self.written[-2:]  # the newest two: a status never pushes the results off the screen
+        if self.evaluating and self.evaluation is not None:
+            status = [*status, f"[yellow]evaluating ({escape(self._options_text())})…[/yellow]"]
+        written = self.query_one("#written", Static)
+        written.update("\n".join(status))
+        written.display = bool(status)
+
+    def _options_text(self) -> str:
+        return ", ".join(f"{k} {'default' if v is None else v}" for k, v in self.options().items())
 
     # -- re-processing ----------------------------------------------------------------------------
     def action_method(self) -> None:
@@ -191,9 +349,17 @@ class ResultsScreen(Screen):
             self.model = MODEL_NAMES[(MODEL_NAMES.index(self.model) + 1) % len(MODEL_NAMES)]
             self.show_options()
 
+    def action_diagnose(self) -> None:
+        from .diagnosis import DiagnosisScreen
+
+        if self.check_action("diagnose", ()):
+            self.app.push_screen(DiagnosisScreen(self.run_dir, default_model_path(self.run_dir, self.kind)))
+
     # -- files ------------------------------------------------------------------------------------
     @work(thread=True, group="files", exit_on_error=False)
     def action_report(self) -> None:
+        from saved_runs.report.build import build_report
+
         self._written(lambda: build_report(self.run_dir, **self.options()))
 
     @work(thread=True, group="files", exit_on_error=False)
@@ -204,31 +370,47 @@ class ResultsScreen(Screen):
     @work(thread=True, group="files", exit_on_error=False)
     def action_export(self, fmt: str) -> None:
         if self.kind == "positioning":
-            self._written(lambda: write_export(self.run_dir, ExportOptions(fmt=fmt, model=self.model))[2])
+            from saved_runs.export.build import write_export
+
+            def write() -> tuple[Path, str]:
+                _, export, path = write_export(self.run_dir, ExportOptions(fmt=fmt, model=self.model))
+                return path, residual_text(export.to_dict())  # the same object as guideway export --json
+
+            self._written(write)
 
     def _written(self, write: Any) -> None:
         try:
-            path = write()
+            out = write()
         except (*EXPECTED_ERRORS, OSError) as exc:  # OSError: a full disk, a read-only folder
             self.app.call_from_thread(self.notify, str(exc), severity="error", markup=False)
             return
+        path, detail = out if isinstance(out, tuple) else (out, "")
         path = Path(path)  # shown relative to the run directory (the title names it) where it is inside it
-        self.written.append(str(path.relative_to(self.run_dir) if path.is_relative_to(self.run_dir) else path))
+        shown = str(path.relative_to(self.run_dir) if path.is_relative_to(self.run_dir) else path)
+        self.written.append(f"written: {escape(shown)}" + (f"\n  {escape(detail)}" if detail else ""))
         self.app.call_from_thread(self.show_options)
 
 
 def straightness_plot(d: dict[str, Any]) -> PlotData:
-    pts = [(p["x_mm"], p["height_um"]) for p in d["profile"]]
+    """The profile and its reference lines, heights from the least-squares line: the laser's arbitrary tilt
+    (tens of um over the travel) would otherwise hide a form of a few um."""
+    lines = d.get("reference_lines", {})
+    lsq = lines.get("least_squares")
+
+    def base(x: float) -> float:
+        return lsq["intercept_um"] + lsq["slope_um_per_mm"] * x if lsq else 0.0
+
+    pts = [(p["x_mm"], p["height_um"] - base(p["x_mm"])) for p in d["profile"]]
     series = []
     if pts:
         x0, x1 = pts[0][0], pts[-1][0]
-        for name, line in d.get("reference_lines", {}).items():
+        for name, line in lines.items():
             s, c = line["slope_um_per_mm"], line["intercept_um"]
-            series.append(Series([(x0, c + s * x0), (x1, c + s * x1)], LINE_STYLES.get(name, "white"), name,
-                                 join=True))
+            series.append(Series([(x, c + s * x - base(x)) for x in (x0, x1)], LINE_STYLES.get(name, "white"),
+                                 LINE_NAMES.get(name, name), join=True))
     series.append(Series(pts, "bold cyan", "profile", join=True))  # drawn last: on top of the lines
-    return PlotData(series, x_label="x mm · profile cyan · lines: end-point yellow, LSQ green, min. zone magenta",
-                    y_label="um")
+    what = "height from the least-squares line" if lsq else "height"
+    return PlotData(series, x_label=f"x (mm) · {what} (um)", y_label="um", legend=True)
 
 
 def positioning_plot(evaluation: Any) -> PlotData:
@@ -240,8 +422,8 @@ def positioning_plot(evaluation: Any) -> PlotData:
     mean_up = [(float(t), float(m)) for t, m in zip(pt["target"], pt["mean_up"], strict=True) if math.isfinite(m)]
     mean_down = [(float(t), float(m)) for t, m in zip(pt["target"], pt["mean_down"], strict=True)
                  if math.isfinite(m)]
-    return PlotData([Series(up, "green", "up"), Series(down, "yellow", "down"),
-                     Series(mean_up, "green", "mean up", join=True),
-                     Series(mean_down, "yellow", "mean down", join=True)],
-                    x_label=f"target ({evaluation.result.target_unit}) · deviation ({unit}), up green, down yellow",
-                    y_label=unit)
+    return PlotData([Series(up, "green", "up ↑"), Series(down, "yellow", "down ↓"),
+                     Series(mean_up, "green", "mean ↑", join=True),
+                     Series(mean_down, "yellow", "mean ↓", join=True)],
+                    x_label=f"target ({evaluation.result.target_unit}) · deviation ({unit})", y_label=unit,
+                    legend=True)

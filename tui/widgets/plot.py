@@ -2,7 +2,10 @@
 
 Each cell holds 2 x 4 dots (Unicode braille), so an 80-column plot has 140+
 horizontal dots.  The y range covers every series and line; a left margin
-carries the y extremes, the bottom row the x extremes.
+carries the y extremes, the bottom row the x extremes and the x label, and with
+``PlotData.legend`` a last row names every labelled series in its colour.
+Axis values are plain decimals in the data's unit (``1900``, ``-2.41``), never
+``+1.9e+03``: a technician reads millimetres and micrometres, not exponents.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ class PlotData:
     series: list[Series] = field(default_factory=list)
     x_label: str = ""
     y_label: str = ""
+    legend: bool = False  # a last row naming each labelled series in its colour
 
     def bounds(self) -> tuple[float, float, float, float] | None:
         pts = [p for s in self.series for p in s.points if math.isfinite(p[0]) and math.isfinite(p[1])]
@@ -46,8 +50,31 @@ class PlotData:
         return x0, x1, y0 - pad, y1 + pad
 
 
-def _fmt(v: float) -> str:
-    return f"{v:+.3g}" if abs(v) < 1e4 else f"{v:+.2e}"
+def axis_number(v: float, span: float, width: int = MARGIN - 1) -> str:
+    """``v`` as a plain decimal with the digits the axis' ``span`` resolves (3 significant digits of the
+    span, at most 4 decimals), in at most ``width`` characters; an exponent only when nothing else fits."""
+    decimals = 0 if span <= 0 or not math.isfinite(span) else min(4, max(0, 2 - math.floor(math.log10(span))))
+    text = f"{v:.{decimals}f}"
+    if text.startswith("-") and float(text) == 0:  # -0.00
+        text = text[1:]
+    return text if len(text) <= width else f"{v:.2g}"
+
+
+def legend_text(series: list[Series], width: int) -> Text:
+    """The labelled series as ``━ label`` (a line) or ``• label`` (points), each in its colour, as many as
+    fit in ``width`` characters (whole entries only)."""
+    out = Text(no_wrap=True, overflow="crop")
+    for s in series:
+        if not s.label:
+            continue
+        entry = ("━ " if s.join else "• ") + s.label
+        if len(out) + len(entry) + 2 > width:
+            break
+        if len(out):
+            out.append("  ")
+        out.append(entry[:2], style=s.style)
+        out.append(entry[2:])
+    return out
 
 
 class Plot(Widget):
@@ -67,7 +94,8 @@ class Plot(Widget):
         self.refresh()
 
     def render(self) -> Text:
-        w, h = self.size.width - MARGIN, self.size.height - 1
+        legend = self.data.legend
+        w, h = self.size.width - MARGIN, self.size.height - 1 - legend
         b = self.data.bounds()
         if w < 4 or h < 1 or b is None:
             return Text(self.empty_text, style="dim")
@@ -88,7 +116,8 @@ class Plot(Widget):
         for s in self.data.series:
             pts = sorted(s.points) if s.join else s.points
             for (xa, ya), (xb, yb) in zip(pts, pts[1:], strict=False) if s.join else ():
-                n = max(2, int(abs(xb - xa) / (x1 - x0) * cols) + 1)
+                # a dot per column and per row the segment crosses: steep segments stay lines, not dots
+                n = max(2, int(max(abs(xb - xa) / (x1 - x0) * cols, abs(yb - ya) / (y1 - y0) * rows)) + 1)
                 for i in range(n + 1):
                     t = i / n
                     dot(xa + (xb - xa) * t, ya + (yb - ya) * t, s.style)
@@ -96,14 +125,18 @@ class Plot(Widget):
                 dot(x, y, s.style)
         out = Text(no_wrap=True, overflow="crop")
         for r in range(h):
-            label = _fmt(y1) if r == 0 else _fmt(y0) if r == h - 1 else (self.data.y_label if r == 1 else "")
+            label = (axis_number(y1, y1 - y0) if r == 0 else axis_number(y0, y1 - y0) if r == h - 1
+                     else (self.data.y_label if r == 1 else ""))
             out.append(f"{label[:MARGIN - 1]:>{MARGIN - 1}}│", style="dim")
             for c in range(w):
                 bits = cells[r][c]
                 out.append(chr(0x2800 + bits) if bits else " ", style=styles[r][c] or "")
             out.append("\n")
-        left, right = _fmt(x0), _fmt(x1)
+        left, right = axis_number(x0, x1 - x0, w), axis_number(x1, x1 - x0, w)
         mid = self.data.x_label[: max(0, w - len(left) - len(right) - 2)]
         gap = max(1, w - len(left) - len(right) - len(mid))
         out.append(" " * MARGIN + left + " " * (gap // 2) + mid + " " * (gap - gap // 2) + right, style="dim")
+        if legend:
+            out.append("\n" + " " * MARGIN)
+            out.append_text(legend_text(self.data.series, w))
         return out
