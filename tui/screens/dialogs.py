@@ -66,6 +66,10 @@ class QuestionScreen(ModalScreen[str]):
             yield Static(keys, id="dialog-keys")
 
     def on_key(self, event) -> None:  # noqa: ANN001 - textual.events.Key
+        # (Textual calls on_key of every class in the MRO: subclasses override answer_key instead)
+        self.answer_key(event)
+
+    def answer_key(self, event) -> None:  # noqa: ANN001 - textual.events.Key
         key = event.key
         if key == "enter":
             event.stop()
@@ -124,13 +128,13 @@ class FaultScreen(QuestionScreen):
         detail.display = self.show_detail
         detail.update(f"[dim]technical detail:[/dim] {escape(self.words.detail)}")
 
-    def on_key(self, event) -> None:  # noqa: ANN001 - textual.events.Key
+    def answer_key(self, event) -> None:  # noqa: ANN001 - textual.events.Key
         if event.key == "d" and "d" not in self.keys:
             event.stop()
             self.show_detail = not self.show_detail
             self.refresh_text()
             return
-        super().on_key(event)
+        super().answer_key(event)
 
 
 def question_screen(prompt: Prompt, attempt: int = 1, since: float | None = None) -> QuestionScreen:

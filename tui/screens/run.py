@@ -120,6 +120,17 @@ class RunScreen(Screen):
 
         self.app.push_screen(ConfirmScreen(title, text), answered)
 
+    def action_pause(self) -> None:
+        self.session.pause()
+        self.notify("pause requested: the run pauses at its next step")
+
+    def action_abort(self) -> None:
+        def answered(yes: bool | None) -> None:
+            if yes:
+                self.session.abort()
+
+        self.app.push_screen(ConfirmAbort(), answered)
+
     def confirm_text(self, choice: str, q: Instruct) -> tuple[str, str]:
         """The question before a redo or a skip (both change what is on disk)."""
         p = q.params
@@ -306,8 +317,8 @@ class CaptureScreen(RunScreen):
 
     SCREEN_NAME = "Capture"
     SUB_TITLE = SCREEN_NAME
-    BINDINGS = [Binding("space,enter", "confirm", "capture / done", key_display="Space"),
-                Binding("r", "choose('redo')", "redo (asks)"), Binding("s", "choose('skip')", "skip (asks)"),
+    BINDINGS = [Binding("space,enter", "confirm", "capture", key_display="Space"),
+                Binding("r", "choose('redo')", "redo"), Binding("s", "choose('skip')", "skip"),
                 Binding("t", "auto", "auto-capture"),
                 Binding("p", "pause", "pause"), Binding("a", "abort", "abort")]
 
