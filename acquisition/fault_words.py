@@ -39,7 +39,7 @@ RULES: tuple[tuple[str, str, str], ...] = (
      "a longer [controller] trigger_timeout_s."),
     (r"cannot (connect|open)|connection (lost|refused|reset)|failed: |device reports readiness|"
      r"errno|broken pipe|end of file|\beio\b|hung up|closed",
-     "is not connected any more (the link was lost)",
+     "lost its connection",
      "Check that its cable is plugged in at both ends, the USB adapter is connected and the device is "
      "powered; retry reconnects to the same port."),
     (r"no reply|no response|within [0-9.]+ ?s|timed? ?out|only [0-9]+ of [0-9]+ bytes",
@@ -55,14 +55,13 @@ RULES: tuple[tuple[str, str, str], ...] = (
     (r"device reported error|error code|error [0-9]+",
      "reports an error of its own",
      "Look at the device's display or status light; the manual lists the code (technical details: d)."),
-    (r"malformed|unexpected|not a valid|non-ascii|garbage|does not (end|answer)|stray|unknown|bad |lacks",
+    (r"no valid|malformed|unexpected|not a valid|non-ascii|garbage|does not (end|answer)|stray|unknown|bad |lacks",
      "sent a reply that could not be read",
      "Check that the protocol and baud rate in the set-up match the device, and the cable."),
 )
 
 DEVICES: tuple[tuple[str, str], ...] = (
-    (r"^reconnection failed: .*displacement sensor|^displacement sensor|^sensor|keyence|panasonic|ild1420|hl-g1|lk-g",
-     "The displacement sensor"),
+    (r"displacement sensor|keyence|panasonic|ild1420|hl-g1|lk-g|/sensor\b", "The displacement sensor"),
     (r"environment transmitter|xy-md02", "The environment transmitter"),
     (r"controller|interferometer|modbus|beam", "The interferometer controller"),
 )
@@ -73,9 +72,7 @@ def explain(fault: str) -> FaultWords:
     low = fault.lower()
     device = next((name for pattern, name in DEVICES if re.search(pattern, low)), "A device")
     what, check = next(((w, c) for pattern, w, c in RULES if re.search(pattern, low)),
-                       ("stopped answering correctly",
-                        "Check the device, its cable and power, then retry."))
-    if low.startswith("reconnection failed"):
-        what = f"could not be reconnected: it {what.removeprefix('is ').removeprefix('was ')}" \
-            if not what.startswith("is not connected") else "could not be reconnected"
+                       ("stopped answering correctly", "Check the device, its cable and power, then retry."))
+    if low.startswith("reconnection failed"):  # the engine's retry could not open the device again
+        what = "could not be reconnected"
     return FaultWords(device, f"{device} {what}.", check, fault)

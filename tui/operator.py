@@ -18,7 +18,6 @@ from acquisition.messages import Instruct, Log, Prompt
 
 from .messages import LogLine, OperatorQuestion
 
-
 # Simulated actions the simulated technician performs as soon as the instruction is shown, before the key:
 # the block is slid to the station and the screen shows it arriving and coming to rest (the stability
 # light, auto-capture), as at a real guideway where the technician moves it, then captures.  Cycle Start
