@@ -97,7 +97,8 @@ class StabilityRule:
 
     def text(self) -> str:
         """The rule in words (the capture screen, docs/tui.md)."""
-        return (f"within {self.near:g} {self.unit} of the target and still within {self.tolerance:g} "
+        where = "station" if self.kind == "straightness" else "target"
+        return (f"at the {where} (within {self.near:g} {self.unit}) and still within {self.tolerance:g} "
                 f"{self.channel_unit} for {self.duration_s:g} s")
 
 

@@ -425,6 +425,7 @@ class RunSession:
             v.live_label = "surface height um (live, decoupled)"
             v.stability = live.stability.update(ifm, ifm.position_mm)
             return
+        self._locate_stop()
         stop = self.current_stop()
         live.stability.retarget(None if stop is None else stop.position)
         if stop is None or ifm is None:
@@ -432,4 +433,6 @@ class RunSession:
         reading = info.axis_reading(r)
         v.offset = reading - stop.position
         v.live_value, v.live_label = live.deviation.deviation_now(ifm, reading, stop.position)
+        if not abs(v.offset) <= live.stability.rule.near:  # on its way: the distance says more than a deviation
+            v.live_value = math.nan
         v.stability = live.stability.update(ifm, reading)

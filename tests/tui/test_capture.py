@@ -115,7 +115,7 @@ def test_positioning_shows_the_compensated_deviation_the_target_and_the_distance
     arrow = "up (+)" if target.direction > 0 else "down (-)"
     m = len(setup_from_dict(source).targets)
     assert texts[2] == f"Target {target.target_index} of {m} · run {target.run} of {runs} · {arrow}"
-    assert f"target {target.position:g} mm  +0.0123 mm to go" in texts[3]
+    assert f"target {target.position:g} mm · axis +0.0123 mm from it" in texts[3]
 
 
 def test_beam_and_signal_state_are_in_words() -> None:
@@ -175,7 +175,7 @@ def test_the_fault_dialog_counts_the_attempts_and_shows_the_technical_line_on_d(
             return title, text, hidden, widget_text(app, "#fault-detail"), app.screen.query_one("#fault-detail").display
 
     title, text, shown_before, detail, shown_after = asyncio.run(main())
-    assert title == "Device fault · attempt 3 (retried 2x, failed again) · failing for 1 min 15 s"
+    assert title == "Device fault · attempt 3 · failing for 1 min 15 s"
     first = text.splitlines()[0]
     assert first == "The displacement sensor did not answer in time."
     assert "b'" not in text and "keyence" not in text

@@ -146,7 +146,7 @@ def test_device_fault_shows_the_dialog_and_retry_loses_no_point(tmp_path: Path, 
     # the dialog says in plain words which device failed and how, with the attempt count in its title; the
     # driver's line (b'\r', exception names, register numbers) is one key away, not on the first line
     device = "The displacement sensor" if faults.startswith("sensor") else "The interferometer controller"
-    assert len(seen) == 1 and seen[0].startswith("Device fault · attempt 1 (first failure) · failing for "), seen
+    assert len(seen) == 1 and seen[0].startswith("Device fault · attempt 1 · failing for "), seen
     first_line = seen[0].split(": ", 1)[1].splitlines()[0]
     assert first_line.startswith(device), seen
     assert not any(tech in first_line for tech in ("b'", "errno", "Errno", "register", "0x", "(", "modbus")), seen

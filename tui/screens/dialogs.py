@@ -121,9 +121,8 @@ class FaultScreen(QuestionScreen):
 
     def refresh_text(self) -> None:
         failing = duration_text(self.clock() - self.since)
-        retries = "first failure" if self.attempt <= 1 else f"retried {self.attempt - 1}x, failed again"
         self.query_one("#dialog-title", Static).update(
-            f"Device fault · attempt {self.attempt} ({retries}) · failing for {failing}")
+            f"Device fault · attempt {self.attempt} · failing for {failing}")
         detail = self.query_one("#fault-detail", Static)
         detail.display = self.show_detail
         detail.update(f"[dim]technical detail:[/dim] {escape(self.words.detail)}")

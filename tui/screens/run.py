@@ -353,7 +353,10 @@ class CaptureScreen(RunScreen):
 
     def on_resize(self) -> None:
         w, h = self.size
-        self.set_class(w >= WIDE[0] and h >= WIDE[1], "wide")
+        wide = w >= WIDE[0] and h >= WIDE[1]
+        if wide != self.has_class("wide"):
+            self.set_class(wide, "wide")
+            self.refresh_view()
 
     def points_done(self) -> int:
         return self.session.info.points_before + self.session.view.points
@@ -419,9 +422,10 @@ class CaptureScreen(RunScreen):
             if v.step is not None and not math.isfinite(value) and math.isfinite(v.offset):
                 return text, f"um · not at {self.session.where()}"
             return text, f"height um · {self.session.where()}"
-        digits = 2
         unit = "arcsec" if info.rotary else "um"
-        text = f"{value:+.{digits}f}" if math.isfinite(value) else "-.--"
+        if not math.isfinite(value) and math.isfinite(v.offset):
+            return "-.--", f"{unit} · not at {self.session.where()}"
+        text = f"{value:+.2f}" if math.isfinite(value) else "-.--"
         return text, f"deviation {unit}, {short_label(v.live_label) or 'live'}"
 
     def status_text(self) -> str:
@@ -435,7 +439,9 @@ class CaptureScreen(RunScreen):
         auto = "auto-capture [b]ON[/b]" if v.auto_capture else "auto-capture off"
         if info.kind == "positioning" and setup is not None and setup.trigger.mode != "manual":
             auto = f"capture: {setup.trigger.mode} trigger"
-        lines.append(f"{LIGHT.get(v.stability, v.stability)}  {auto} [dim](t)[/dim]")
+        else:
+            auto += " [dim](t)[/dim]"
+        lines.append(f"{LIGHT.get(v.stability, v.stability)}  {auto}")
         if info.kind == "straightness":
             x = f"{r.interferometer.position_mm:.4f} mm" if r is not None and r.interferometer is not None else "-"
             lines.append(f"x {x} · {distance_text(v.offset, rule.near if rule else math.inf)}")
@@ -448,11 +454,11 @@ class CaptureScreen(RunScreen):
             axis = info.axis_reading(r)
             digits = 5 if info.rotary else 4
             if stop is not None:
-                dist = f"{v.offset:+.{digits}f} {info.unit} to go" if math.isfinite(v.offset) else ""
-                lines.append(f"target {stop.position:g} {info.unit}  {dist}")
+                dist = f" · axis {v.offset:+.{digits}f} {info.unit} from it" if math.isfinite(v.offset) else ""
+                lines.append(f"target {stop.position:g} {info.unit}{dist}")
             raw = f"{axis:+.{digits}f} {info.unit}" if math.isfinite(axis) else "-"
             what = "angle" if info.rotary else "interferometer"
-            lines.append(f"[dim]raw axis reading {raw} (datum {info.datum:g} + {what})[/dim]")
+            lines.append(f"[dim]raw {raw} = datum {info.datum:g} + {what}[/dim]")
         lines.append(beam_text(r, info.kind == "straightness"))
         if r is not None and r.problem:
             lines.append(f"[red]{escape(r.problem)}[/red]")
