@@ -245,7 +245,8 @@ class ConnectScreen(RunScreen):
             w = v.warmup
             state += f"   [dim]{w['elapsed_s']:.0f} s, {w['readings']} readings (window {w['window']})[/dim]"
         self.query_one("#state", Static).update(state)
-        self.query_one("#instruction", Static).update(self.instruction_text())
+        refused = f"\n[b yellow]{escape(v.refused)}[/b yellow]" if v.refused else ""
+        self.query_one("#instruction", Static).update(self.instruction_text() + refused)
         self.query_one("#readout", Static).update(readout_text(v.reading, sensor=self.session.info.kind
                                                                == "straightness"))
         if self.session.info.warmup:
