@@ -121,6 +121,8 @@ class _LiveValues:
         self.deviation = LiveDeviation(setup.axis_type, setup.environment.to_dict()) \
             if info.kind == "positioning" else None
         self.stability = LiveStability(StabilityRule.of(setup))
+        # a point could not be evaluated live: the big number then shows none rather than a wrong one
+        self.broken = False
 
     def __call__(self, name: str, doc: dict[str, Any]) -> None:
         for sub in (self.profile, self.deviation):
@@ -129,8 +131,6 @@ class _LiveValues:
                     sub(name, doc)
                 except (KeyError, ValueError, TypeError):  # a row without the channels: no live value from it
                     self.broken = True
-
-    broken = False  # a point could not be evaluated live (the big number then shows none rather than a wrong one)
 
     def height_now(self, ifm: Any, sensor_mm: float, station: int, x_mm: float, pass_: int) -> float:
         assert self.profile is not None

@@ -13,8 +13,6 @@ from textual.markup import escape
 from textual.screen import ModalScreen, Screen
 from textual.widgets import Static
 
-from acquisition.fault_words import explain
-
 if TYPE_CHECKING:
     from acquisition.messages import Prompt
 
@@ -102,6 +100,8 @@ class FaultScreen(QuestionScreen):
         self.attempt = attempt
         self.clock = clock
         self.since = clock() if since is None else since
+        from acquisition.fault_words import explain  # (not before the first frame: benchmarks/bench_tui_first_frame.py)
+
         self.words = explain(prompt.fault or prompt.text)
         self.show_detail = False
 
