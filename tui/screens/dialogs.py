@@ -110,22 +110,23 @@ class FaultScreen(QuestionScreen):
                                                                        self.prompt.choices[0]) else "")
                              for k, c in zip(self.keys, self.prompt.choices, strict=True))
         with Vertical(id="dialog", classes="fault"):
-            yield Static(id="dialog-title")
+            yield Static(self.title_text(), id="dialog-title")
             yield Static(f"[b]{escape(self.words.what)}[/b]\n{escape(self.words.check)}", id="dialog-text")
-            yield Static(id="fault-detail")
+            detail = Static(f"[dim]technical detail:[/dim] {escape(self.words.detail)}", id="fault-detail")
+            detail.display = False
+            yield detail
             yield Static(f"{choices}   [b]d[/b] technical details", id="dialog-keys")
 
     def on_mount(self) -> None:
         self.refresh_text()
         self.set_interval(1.0, self.refresh_text)
 
+    def title_text(self) -> str:
+        return f"Device fault · attempt {self.attempt} · failing for {duration_text(self.clock() - self.since)}"
+
     def refresh_text(self) -> None:
-        failing = duration_text(self.clock() - self.since)
-        self.query_one("#dialog-title", Static).update(
-            f"Device fault · attempt {self.attempt} · failing for {failing}")
-        detail = self.query_one("#fault-detail", Static)
-        detail.display = self.show_detail
-        detail.update(f"[dim]technical detail:[/dim] {escape(self.words.detail)}")
+        self.query_one("#dialog-title", Static).update(self.title_text())
+        self.query_one("#fault-detail", Static).display = self.show_detail
 
     def answer_key(self, event) -> None:  # noqa: ANN001 - textual.events.Key
         if event.key == "d" and "d" not in self.keys:
