@@ -424,8 +424,9 @@ class CaptureScreen(RunScreen):
                 return text, f"um · not at {self.session.where()}"
             return text, f"height um · {self.session.where()}"
         unit = "arcsec" if info.rotary else "um"
-        if not math.isfinite(value) and math.isfinite(v.offset):
-            return "-.--", f"{unit} · not at {self.session.where()}"
+        stop = self.session.current_stop()
+        if not math.isfinite(value) and math.isfinite(v.offset) and stop is not None:
+            return "-.--", f"{unit} · not at target {stop.target_index}"
         text = f"{value:+.2f}" if math.isfinite(value) else "-.--"
         return text, f"deviation {unit}, {short_label(v.live_label) or 'live'}"
 
