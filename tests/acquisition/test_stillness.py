@@ -55,3 +55,36 @@ def test_live_stability_ignores_a_repeated_capture_and_a_block_off_the_station()
     assert len(live.window.readings) == 4
     live.retarget(300.0)  # the next station: the window starts again
     assert live.state == MOVING and live.window.readings == []
+
+
+def test_the_live_light_turns_stable_at_the_reading_where_acquire_auto_captures() -> None:
+    """The same readings through plans.straightness.arrival (acquire --auto) and the TUI's LiveStability: the
+    light is STABLE exactly from the reading after which the hands-free plan captures."""
+    from acquisition.messages import Log, TriggerInterferometer, Wait
+    from acquisition.plans.straightness import arrival
+
+    s = setup_from_dict({**STRAIGHTNESS, "auto": {"still_s": 1.0, "still_um": 2.0, "poll_s": 0.25}})
+    # the block slides in (100 um steps), overshoots, settles with 1 um of noise
+    positions_um = [-400, -300, -200, -100, 0, 60, 10, 11, 10, 12, 11, 10, 11, 10, 12, 11]
+    readings = [dataclasses.replace(frozen_ifm(position_mm=300.0 + p / 1000.0, stry_um=0.0), timestamp_s=i * POLL_S)
+                for i, p in enumerate(positions_um)]
+    plan = arrival(s, 0, 3, 300.0)
+    msg, used = next(plan), 0
+    try:
+        while True:
+            if isinstance(msg, TriggerInterferometer):
+                used += 1  # (counted before the send: the plan may return on this reading)
+                msg = plan.send(readings[used - 1])
+            elif isinstance(msg, Wait):
+                msg = plan.send(POLL_S)
+            else:
+                assert isinstance(msg, Log)
+                msg = plan.send(None)
+    except StopIteration as stop:
+        assert stop.value is True
+    live = LiveStability(StabilityRule.of(s))
+    live.retarget(300.0)
+    states = [live.update(r, r.position_mm) for r in readings]
+    # still from the 10 um reading (index 6) on: 1 s later (4 polls) is index 10, the 11th reading
+    assert used == 11 and states.index(STABLE) == used - 1
+    assert states[:6] == [MOVING] * 6  # sliding in, the overshoot: each reading moved
