@@ -15,9 +15,12 @@ from typing import Any
 
 import numpy as np
 
+from drivers.readings import AveragedDisplacement, InterferometerReading
 from processing.decoupling import CHANNEL_COLUMNS, DECOUPLERS, DEFAULT_METHOD, Channels, Setup
 from processing.environment import EnvironmentSettings, angular_deviation_deg, compensate_linear_readings
 from processing.geometry import BlockGeometry
+
+from .plans.straightness import point_record
 
 HeightCallback = Callable[[int, int, float], None]  # (pass, station, height_um)
 
@@ -38,6 +41,23 @@ class LiveProfile:
         self.heights: dict[tuple[int, int], float] = {}
         self._setup = Setup.from_geometry(geometry)
 
+    def _height(self, row: dict[str, Any]) -> float:
+        """processing.decoupling.decouple of ``row`` against the first point (and the first step), without
+        building a DataFrame per point."""
+        assert self.first is not None
+        rows = [self.first] if self.first_step is None else [self.first, self.first_step]
+        rows.append(row)
+        channels = Channels(**{f: np.array([r[f] for r in rows], dtype=float) for f in CHANNEL_COLUMNS},
+                            first_step=None if self.first_step is None else 1)
+        return float(DECOUPLERS[DEFAULT_METHOD](channels, self._setup)[1][-1])
+
+    def height_now(self, row: dict[str, Any]) -> float:
+        """The surface height (µm) a capture of ``row`` (a points.csv row built from a live reading,
+        :func:`live_row`) would give now; nothing is kept.  NaN before the run's first point."""
+        if self.first is None:
+            return float("nan")
+        return self._height(row)
+
     def __call__(self, name: str, doc: dict[str, Any]) -> None:
         if name == "event" and doc.get("stream", "primary") == "primary":
             row = doc["data"]
@@ -46,12 +66,7 @@ class LiveProfile:
             key = (int(row.get("pass", 0)), int(row["station"]))
             if key == (0, int(self.first["station"]) + 1):
                 self.first_step = row  # the datum pitch estimate of the exact method comes from it
-            # processing.decoupling.decouple on these points, without building a DataFrame per point
-            rows = [self.first] if self.first_step is None else [self.first, self.first_step]
-            rows.append(row)
-            channels = Channels(**{f: np.array([r[f] for r in rows], dtype=float) for f in CHANNEL_COLUMNS},
-                                first_step=None if self.first_step is None else 1)
-            h = float(DECOUPLERS[DEFAULT_METHOD](channels, self._setup)[1][-1])
+            h = self._height(row)
             self.heights[key] = h
             if self.on_height is not None:
                 self.on_height(*key, h)
@@ -61,6 +76,14 @@ class LiveProfile:
             self.heights.pop(key, None)
             if self.first is not None and key == (0, int(self.first["station"]) + 1):
                 self.first_step = None
+
+
+def live_row(ifm: InterferometerReading, sensor_mm: float, station: int, x_mm: float, pass_: int = 0
+             ) -> dict[str, Any]:
+    """A straightness points.csv row from a live look at the devices (the plan's ``point_record`` with the
+    live sensor value in place of the averaged one), for :meth:`LiveProfile.height_now`."""
+    sensor = AveragedDisplacement(sensor_mm, 0.0, 1, 0, ifm.timestamp_s)
+    return point_record(station, x_mm, ifm.timestamp_s, ifm, sensor, pass_)
 
 
 DeviationCallback = Callable[[dict[str, Any], float, str], None]  # (row, deviation, label)
@@ -102,6 +125,16 @@ class LiveDeviation:
         except ValueError as exc:
             return float("nan"), f"not compensated: {exc}"
         return (float(length[-1]) - float(row["target_mm"])) * UM_PER_MM, self.label
+
+    def deviation_now(self, ifm: InterferometerReading, reading: float, target: float) -> tuple[float, str]:
+        """(deviation, label) of the axis now: a live capture ``ifm`` with ``reading`` (the datum plus the
+        interferometer position or angle, mm or deg) against ``target``, compensated as a captured point
+        would be (the air index of the run's first point; before it, of this reading)."""
+        unit = "deg" if self.rotary else "mm"
+        row = {f"reading_{unit}": reading, f"target_{unit}": target, "air_temp_c": ifm.air_temp_c,
+               "air_pressure_hpa": ifm.air_pressure_hpa, "humidity_pct": ifm.humidity_pct,
+               "material_temp_c": ifm.material_temp_c}
+        return self.deviation(row)
 
     def __call__(self, name: str, doc: dict[str, Any]) -> None:
         if name != "event" or doc.get("stream", "primary") != "primary":

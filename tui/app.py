@@ -26,7 +26,7 @@ from .messages import (
     RunDocument,
     RunEnded,
 )
-from .screens.dialogs import ConfirmScreen, HelpScreen, QuestionScreen
+from .screens.dialogs import ConfirmScreen, HelpScreen, QuestionScreen, question_screen
 from .screens.runs import RunsScreen
 from .screens.setup import SetupScreen
 
@@ -50,9 +50,9 @@ def plan_info(setup: StraightnessSetup | PositioningSetup, points_before: int = 
 
     if isinstance(setup, StraightnessSetup):
         return RunPlanInfo("straightness", len(setup.steps()), setup.stations, "mm", setup.warmup.enabled,
-                           setup.block_length_mm, points_before)
+                           setup.block_length_mm, points_before, setup=setup)
     return RunPlanInfo("positioning", len(setup.measured_stops()), 0, setup.unit, points_before=points_before,
-                       datum=setup.datum)
+                       datum=setup.datum, setup=setup)
 
 
 class GuidewayApp(App[None]):
@@ -243,7 +243,7 @@ class GuidewayApp(App[None]):
             if choice is not None and session.view.ticket == ticket and session.view.question is prompt:
                 session.answer(choice)
 
-        self.push_screen(QuestionScreen(prompt), answered)
+        self.push_screen(question_screen(prompt, session.view.fault_attempts or 1, session.view.fault_since), answered)
 
     # -- quitting -----------------------------------------------------------------------------------
     def action_quit_app(self) -> None:

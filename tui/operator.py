@@ -3,8 +3,8 @@
 The engine calls :meth:`TuiOperator.instruct` / :meth:`prompt` in its worker
 thread; they post the question to the UI and block *that* thread until the UI
 calls :meth:`answer` (never the UI thread).  Simulated physical actions
-(``--simulate``: the block moves when the operator confirms) run like the
-terminal operator's.
+(``--simulate``): the block is placed when the instruction is shown
+(``EARLY_ACTIONS``), Cycle Start when the operator confirms.
 """
 
 from __future__ import annotations
@@ -17,6 +17,12 @@ from typing import Any
 from acquisition.messages import Instruct, Log, Prompt
 
 from .messages import LogLine, OperatorQuestion
+
+# Simulated actions the simulated technician performs as soon as the instruction is shown, before the key:
+# the block is slid to the station and the screen shows it arriving and coming to rest (the stability
+# light, auto-capture), as at a real guideway where the technician moves it, then captures.  Cycle Start
+# stays on the key (the machine must not start before the operator says so).
+EARLY_ACTIONS = frozenset({"place_block"})
 
 
 class TuiOperator:
@@ -52,9 +58,12 @@ class TuiOperator:
         self._closed.set()
 
     def instruct(self, msg: Instruct) -> str:
-        answer = self._ask(msg)
         action = self.actions.get(msg.action)
-        if answer == msg.choices[0] and action is not None:
+        early = msg.action in EARLY_ACTIONS and action is not None and not self._closed.is_set()
+        if early:
+            action(**msg.params)
+        answer = self._ask(msg)
+        if answer == msg.choices[0] and action is not None and not early:
             action(**msg.params)
         return answer
 

@@ -13,9 +13,11 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import functools
 import io
 import math
 import threading
+import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,8 +25,10 @@ from typing import Any
 
 from acquisition.acquire import SimOptions, acquire
 from acquisition.engine import RunEngine
+from acquisition.live import LiveDeviation, LiveProfile, live_row
 from acquisition.messages import Instruct, Prompt
 from acquisition.monitor import LiveMonitor, LiveReading
+from acquisition.stillness import STABLE, LiveStability, StabilityRule
 from saved_runs.errors import EXPECTED_ERRORS
 
 from .messages import (
@@ -73,10 +77,30 @@ class RunPlanInfo:
     step_mm: float = 0.0  # straightness: block length (x of station k = k * step_mm)
     points_before: int = 0  # resumed run: points already on disk
     datum: float = 0.0  # positioning: axis position (mm or deg) where the interferometer was zeroed
+    # the validated set-up (StraightnessSetup or PositioningSetup): the live values and the stability rule
+    setup: Any = None
 
     @property
     def rotary(self) -> bool:
         return self.kind == "positioning" and self.unit == "deg"
+
+    @functools.cached_property
+    def stops(self) -> list[Any]:
+        """Positioning: the measured stops in the order of the cycle (acquisition.setup.cycles.Stop)."""
+        return self.setup.measured_stops() if self.kind == "positioning" and self.setup is not None else []
+
+    @property
+    def targets(self) -> int:
+        return len(self.setup.targets) if self.kind == "positioning" and self.setup is not None else 0
+
+    @property
+    def runs(self) -> int:
+        return int(self.setup.runs) if self.kind == "positioning" and self.setup is not None else 0
+
+    @property
+    def sensor_range_mm(self) -> tuple[float, float]:
+        """Straightness: the sensor range a capture accepts ([validation] sensor_range_mm)."""
+        return tuple(self.setup.validation.sensor_range_mm) if self.setup is not None else (-50.0, 50.0)
 
     def axis_reading(self, reading: LiveReading | None) -> float:
         """Positioning: where the axis is by a live reading, as the plan records a capture (``reading_mm`` /
@@ -85,6 +109,34 @@ class RunPlanInfo:
         if ifm is None:
             return math.nan
         return self.datum + (reading.angle_deg if self.rotary else ifm.position_mm)
+
+
+class _LiveValues:
+    """The live estimators of one run (UI thread): the profile or the deviations as ``guideway process``
+    computes them (acquisition.live), fed with the points as they arrive, and the stability light."""
+
+    def __init__(self, info: RunPlanInfo) -> None:
+        setup = info.setup
+        self.profile = LiveProfile(setup.geometry) if info.kind == "straightness" else None
+        self.deviation = LiveDeviation(setup.axis_type, setup.environment.to_dict()) \
+            if info.kind == "positioning" else None
+        self.stability = LiveStability(StabilityRule.of(setup))
+        # a point could not be evaluated live: the big number then shows none rather than a wrong one
+        self.broken = False
+
+    def __call__(self, name: str, doc: dict[str, Any]) -> None:
+        for sub in (self.profile, self.deviation):
+            if sub is not None:
+                try:
+                    sub(name, doc)
+                except (KeyError, ValueError, TypeError):  # a row without the channels: no live value from it
+                    self.broken = True
+
+    def height_now(self, ifm: Any, sensor_mm: float, station: int, x_mm: float, pass_: int) -> float:
+        assert self.profile is not None
+        if not math.isfinite(sensor_mm) or self.broken:
+            return math.nan
+        return self.profile.height_now(live_row(ifm, sensor_mm, station, x_mm, pass_))
 
 
 @dataclass
@@ -107,6 +159,19 @@ class SessionView:
     state: str = "connecting"  # connecting, running, paused, finished, failed
     log: collections.deque[str] = field(default_factory=lambda: collections.deque(maxlen=LOG_LINES))
     started: bool = False
+    # where the live values are taken against: straightness (pass, station), positioning the measured stop index
+    step: tuple[int, int] | None = None
+    stop_index: int = 0
+    # the big number: straightness the live decoupled surface height (um), positioning the live compensated
+    # deviation from the target (um, arcsec on a rotary axis); NaN without one
+    live_value: float = math.nan
+    live_label: str = ""
+    offset: float = math.nan  # from the station (um) / to the target (mm or deg): reading - target
+    stability: str = "moving"  # acquisition.stillness: moving, settling, stable
+    auto_capture: bool = False
+    fault_attempts: int = 0  # device-fault questions in a row (the first failure is attempt 1)
+    fault_since: float | None = None  # time.monotonic() of the first of them
+    refused: str = ""  # a key refused while the run was busy (shown until the next instruction)
 
     @property
     def last_point(self) -> dict[str, Any] | None:
@@ -139,6 +204,7 @@ class RunSession:
         self.engine: RunEngine | None = None
         self.monitor: LiveMonitor | None = None
         self._thread: threading.Thread | None = None
+        self._live: _LiveValues | None = None
 
     # -- the worker -----------------------------------------------------------------------------
     def start(self) -> None:
@@ -197,6 +263,39 @@ class RunSession:
         elif self.engine is not None:
             self.engine.request_pause()
 
+    def toggle_auto_capture(self) -> bool:
+        """Auto-capture on/off: capture as soon as the stability light is stable (the rule of ``acquire
+        --auto``, acquisition.stillness); returns the new setting."""
+        self.view.auto_capture = not self.view.auto_capture
+        self.view.log.append(f"auto-capture {'on' if self.view.auto_capture else 'off'}")
+        self._auto_capture()
+        return self.view.auto_capture
+
+    def _auto_capture(self) -> None:
+        v = self.view
+        q = v.question
+        if v.auto_capture and v.stability == STABLE and isinstance(q, Instruct) and "capture" in q.choices \
+                and q.key in ("station", "target"):
+            v.log.append(f"auto-capture: {self.where()} stable")
+            self.answer("capture")
+
+    def where(self) -> str:
+        """The step the live values are taken at, in words (``station 3 (return)``, ``target 2 run 1 up``)."""
+        v = self.view
+        if self.info.kind == "straightness":
+            if v.step is None:
+                return "the datum"
+            return f"station {v.step[1]}{' (return)' if v.step[0] else ''}"
+        stop = self.current_stop()
+        if stop is None:
+            return "the end of the cycle"
+        return f"target {stop.target_index} run {stop.run} {'up' if stop.direction > 0 else 'down'}"
+
+    def current_stop(self) -> Any:
+        """Positioning: the measured stop the axis goes to next (None after the last)."""
+        stops = self.info.stops
+        return stops[self.view.stop_index] if 0 <= self.view.stop_index < len(stops) else None
+
     def override(self) -> None:
         """Warm-up override (recorded in the run)."""
         if self.engine is not None:
@@ -218,8 +317,20 @@ class RunSession:
             live = r.sensor_mean_mm if self.info.kind == "straightness" else self.info.axis_reading(r)
             if math.isfinite(live):
                 v.live_history.append(live)
+            self.update_live()
+            self._auto_capture()
         elif isinstance(message, OperatorQuestion):
             v.question, v.ticket = message.question, message.ticket
+            v.refused = ""
+            q = message.question
+            if isinstance(q, Prompt) and q.key == "fault":
+                if v.fault_since is None:
+                    v.fault_since, v.fault_attempts = time.monotonic(), 0
+                v.fault_attempts += 1
+            if isinstance(q, Instruct) and "station" in q.params and q.key == "station":
+                v.step = (int(q.params.get("pass", 0)), int(q.params["station"]))
+            self._locate_stop()
+            self.update_live()
         elif isinstance(message, LogLine):
             v.log.append(message.text)
         elif isinstance(message, HeightArrived):
@@ -239,16 +350,89 @@ class RunSession:
             v.state = "running"
         elif name == "state":
             if doc["state"] in ("running", "paused"):
+                if doc["state"] == "running" and v.state == "paused":
+                    v.log.append(f"running again ({doc.get('reason') or 'resumed'})")
                 v.state = doc["state"]
+            if doc["state"] == "running":
+                v.fault_since, v.fault_attempts = None, 0
         elif name == "progress" and doc.get("key") == "warmup":
             v.warmup = dict(doc["data"])
         elif name == "event":
+            live = self.live() if self.info.setup is not None else None  # (made before the row is added)
             v.points += 1
             v.rows.append(doc["data"])
+            if live is not None:
+                live(name, doc)
+            self._locate_stop()
         elif name == "retract":
             v.points -= 1
             m = doc["match"]
             v.rows = [r for r in v.rows if any(r.get(k) != value for k, value in m.items())]
             v.heights.pop((int(m.get("pass", 0)), int(m["station"])), None)
+            if self.info.setup is not None:
+                self.live()(name, doc)
         elif name == "annotate" and doc.get("key") == "skipped":
             v.skipped = len(doc["value"])
+            self._locate_stop()
+
+    # -- the live values (UI thread) ------------------------------------------------------------------
+    def live(self) -> _LiveValues:
+        """The live estimators of this run, fed with the points on disk (a resumed run's too) on first use."""
+        if self._live is None:
+            self._live = _LiveValues(self.info)
+            for row in self.view.rows:
+                self._live("event", {"data": row})
+        return self._live
+
+    def _locate_stop(self) -> None:
+        """Positioning: the measured stop the axis goes to next (the manual instruction names it; else the
+        one after the points and skips so far)."""
+        if self.info.kind != "positioning":
+            return
+        v = self.view
+        q = v.question
+        if isinstance(q, Instruct) and "target_index" in q.params:
+            key = (int(q.params["run"]), int(q.params["direction"]), int(q.params["target_index"]))
+            for i, st in enumerate(self.info.stops):
+                if (st.run, st.direction, st.target_index) == key:
+                    v.stop_index = i
+                    return
+        v.stop_index = self.info.points_before + v.points + v.skipped
+
+    def update_live(self) -> None:
+        """The big number, the distance to the target and the stability light from the newest live reading."""
+        v, info = self.view, self.info
+        if info.setup is None:
+            return
+        live = self.live()
+        r = v.reading
+        ifm = r.interferometer if r is not None else None
+        if info.kind == "straightness":
+            if v.step is None:
+                live.stability.retarget(None)
+                return
+            pass_, k = v.step
+            x_mm = k * info.step_mm
+            live.stability.retarget(x_mm)
+            if ifm is None:
+                return
+            v.offset = (ifm.position_mm - x_mm) * 1000.0
+            # a height is only shown with the block at the station (|lin| within [validation] max_lin_um, the
+            # check of a capture): elsewhere it would be the height of a station the block is not at
+            at_station = abs(v.offset) <= live.stability.rule.near
+            v.live_value = live.height_now(ifm, r.sensor_mean_mm, k, x_mm, pass_) \
+                if r is not None and at_station else math.nan
+            v.live_label = "surface height um (live, decoupled)"
+            v.stability = live.stability.update(ifm, ifm.position_mm)
+            return
+        self._locate_stop()
+        stop = self.current_stop()
+        live.stability.retarget(None if stop is None else stop.position)
+        if stop is None or ifm is None:
+            return
+        reading = info.axis_reading(r)
+        v.offset = reading - stop.position
+        v.live_value, v.live_label = live.deviation.deviation_now(ifm, reading, stop.position)
+        if not abs(v.offset) <= live.stability.rule.near:  # on its way: the distance says more than a deviation
+            v.live_value = math.nan
+        v.stability = live.stability.update(ifm, reading)

@@ -46,6 +46,7 @@ from ..messages import (
 )
 from ..setup.cycles import Stop
 from ..setup.positioning import PositioningSetup
+from ..stillness import STABLE, StillnessWindow, position_channel
 from .straightness import ResumePoint
 
 ARROW = {1: "up (+)", -1: "down (-)"}
@@ -183,8 +184,7 @@ def _stable_capture(setup: PositioningSetup, i: int, tracker: ApproachTracker
     where the cycle does not; None after the timeout."""
     tr = setup.trigger
     s = setup.measured_stops()[i]
-    window = tr.stability_window / (3600.0 if setup.axis_type == "rotary" else 1000.0)
-    hist: list[tuple[float, float]] = []
+    window = StillnessWindow(tr.stability_window, tr.dwell_s / 2)  # the rule of the TUI's stability light too
     waited = 0.0
     while True:
         ifm, pos = yield from _read(setup)
@@ -196,13 +196,10 @@ def _stable_capture(setup: PositioningSetup, i: int, tracker: ApproachTracker
         else:
             state = "wait"
         if state == "ready" and abs(pos - s.position) <= tr.near:
-            hist.append((ifm.timestamp_s, pos))
-            while max(p for _, p in hist) - min(p for _, p in hist) > window:
-                hist.pop(0)
-            if len(hist) >= 2 and hist[-1][0] - hist[0][0] >= tr.dwell_s / 2:
+            if window.add(ifm.timestamp_s, (position_channel(pos, setup.axis_type),)) == STABLE:
                 return ifm, pos
         else:
-            hist.clear()
+            window.clear()
         waited += max((yield Wait(tr.poll_s)), tr.poll_s)
         if waited > tr.timeout_s:
             return None

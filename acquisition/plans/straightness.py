@@ -53,6 +53,7 @@ from ..messages import (
     ZeroInterferometer,
 )
 from ..setup.straightness import StraightnessSetup, WarmupSetup
+from ..stillness import STABLE, StillnessWindow, straightness_channels
 
 Step = tuple[int, int]  # (pass, station)
 
@@ -246,7 +247,8 @@ def arrival(setup: StraightnessSetup, p: int, k: int, x: float) -> Generator[Mes
     a, v = setup.auto, setup.validation
     where = f"station {k}{' (return)' if p else ''} (x = {x:g} mm)"
     yield Log(f"hands-free: waiting for the block at {where}")
-    hist: list[tuple[float, float, float, float]] = []  # (time s, position um, stry um, strz um)
+    # (position um, stry um, strz um) still for still_s: the rule of the TUI's stability light too
+    window = StillnessWindow(a.still_um, a.still_s)
     t_first: float | None = None
     waited = 0.0
     while True:
@@ -254,13 +256,10 @@ def arrival(setup: StraightnessSetup, p: int, k: int, x: float) -> Generator[Mes
         lin_um = (ifm.position_mm - x) * 1000.0
         t_first = ifm.timestamp_s if t_first is None else t_first
         if ifm.ok and math.isfinite(lin_um) and abs(lin_um) <= v.max_lin_um:
-            hist.append((ifm.timestamp_s, ifm.position_mm * 1000.0, ifm.stry_um, ifm.strz_um))
-            while max(max(c) - min(c) for c in list(zip(*hist, strict=True))[1:]) > a.still_um:
-                hist.pop(0)  # the block moved: the window starts after the move
-            if hist[-1][0] - hist[0][0] >= a.still_s:
+            if window.add(ifm.timestamp_s, straightness_channels(ifm)) == STABLE:
                 return True
         else:
-            hist.clear()
+            window.clear()
         waited += max((yield Wait(a.poll_s)), a.poll_s)
         if max(waited, ifm.timestamp_s - t_first) >= a.station_timeout_s:
             answer = yield Prompt(

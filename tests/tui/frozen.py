@@ -3,15 +3,17 @@ points and questions that do not change with time (no clock, uid or temporary pa
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from acquisition.messages import Instruct, Prompt
 from acquisition.monitor import LiveReading
-from acquisition.plans.straightness import straightness_plan
+from acquisition.plans.straightness import point_record, straightness_plan
 from acquisition.setup.files import setup_from_dict
-from drivers.readings import ControllerStatus, InterferometerReading
+from drivers.readings import AveragedDisplacement, ControllerStatus, InterferometerReading
 from tests.tui.sessions import POSITIONING, STRAIGHTNESS
 from tui.app import plan_info
+from tui.messages import LiveReadingArrived, OperatorQuestion, RunDocument
 from tui.session import RunSession
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -53,13 +55,20 @@ def straightness_session(stage: str) -> RunSession:
         v.warmup = {"state": "drifting", "elapsed_s": 14.0, "readings": 7, "window": 5, "drift_ifm_um": 0.31,
                     "drift_sensor_um": 0.72, "max_drift_ifm_um": 0.5, "max_drift_sensor_um": 0.5, "timeout_s": 1800.0}
         return s
-    heights = {0: 0.0, 1: -6.214, 2: -11.903}
-    v.heights.update({(0, k): h for k, h in heights.items()})
-    v.points = 3
-    v.rows.append({"station": 2, "pass": 0, "x_mm": 200.0, "stry_um": -2.745, "sensor_mm": 0.01207})
-    v.question = Instruct("place_block", "Move the block to station 3 (x = 300 mm), against the side face; "
-                          "capture when it is still.", {"station": 3, "pass": 0},
-                          choices=("capture", "redo", "skip", "pause", "abort"), key="station")
+    # three points as the plan records them (the live profile computes their heights), then station 3 asked
+    # for, the block there and still for the [auto] still_s (2 s of 0.25 s captures: the light is STABLE)
+    for k, (stry_um, sensor_mm) in enumerate([(0.0, 0.01234), (-1.372, 0.01221), (-2.745, 0.01207)]):
+        row = point_record(k, 100.0 * k, 0.0, ifm(position_mm=100.0 * k, stry_um=stry_um),
+                           AveragedDisplacement(sensor_mm, 0.0, 5, 0, 0.0))
+        s.apply(RunDocument("event", {"data": row}))
+    v.heights.update(s.live().profile.heights)  # (what acquire's own LiveProfile posts as HeightArrived)
+    s.apply(OperatorQuestion(Instruct("place_block", "Move the block to station 3 (x = 300 mm), against the side "
+                                      "face; capture when it is still.", {"station": 3, "pass": 0},
+                                      choices=("capture", "redo", "skip", "pause", "abort"), key="station"), 1))
+    for i in range(9):
+        s.apply(LiveReadingArrived(LiveReading(
+            0.0, sensor_mm=0.01193, sensor_status="ok", sensor_mean_mm=0.01193, sensor_count=1,
+            interferometer=dataclasses.replace(ifm(position_mm=300.0021, stry_um=-4.118), timestamp_s=0.25 * i))))
     v.log.extend(["station   2  x =    200.0 mm  stry =   -2.745 um  sensor = +0.01207 mm"])
     return s
 
@@ -75,7 +84,9 @@ def rotary_session() -> RunSession:
     s = RunSession(lambda _m: None, plan_info(setup), ROTARY, RUNS / "new", simulate=None)
     v = s.view
     v.started, v.state = True, "running"
-    v.reading = LiveReading(0.0, interferometer=ifm(position_mm=0.0, stry_um=0.0), angle_deg=90.000712)
+    # the axis 0.000712 deg (2.6 arcsec) beyond the next stop (run 1 up, the 4th target)
+    v.reading = LiveReading(0.0, interferometer=ifm(position_mm=0.0, stry_um=0.0),
+                            angle_deg=setup.measured_stops()[3].position - setup.datum + 0.000712)
     for i, (t, d) in enumerate(zip(setup.targets[:3], (0.0, 3.1, 2.6), strict=True), start=1):
         v.deviations[(1, 1, i)] = (t, d)
     v.deviation_label = "angular, not air-compensated"
@@ -83,6 +94,7 @@ def rotary_session() -> RunSession:
     v.rows.append({"run": 1, "direction": 1, "target_index": 3, "target_deg": 90.0, "reading_deg": 90.000722})
     v.question = Instruct("cycle_start", "Start the part program of this cycle (guideway gcode) with Cycle Start.",
                           {}, choices=("started", "abort"), key="start")
+    s.apply(LiveReadingArrived(v.reading))
     return s
 
 
@@ -91,16 +103,18 @@ def positioning_session() -> RunSession:
     s = RunSession(lambda _m: None, plan_info(setup), POSITIONING, RUNS / "new", simulate=None)
     v = s.view
     v.started, v.state = True, "running"
-    v.reading = LiveReading(0.0, interferometer=ifm(position_mm=101.3442, stry_um=0.0))
     devs = [(0.0, 0.0), (48.7, 1.9), (101.3, 3.2), (152.1, 2.4), (200.0, 4.1)]
     for i, (t, d) in enumerate(devs, start=1):
         v.deviations[(1, 1, i)] = (t, d)
         v.deviations[(1, -1, i)] = (t, d - 2.8)
     v.deviation_label = "environment-compensated"
-    v.points = 10
-    v.rows.append({"run": 1, "direction": -1, "target_index": 1, "target_mm": 0.0, "reading_mm": -0.0028})
+    v.points = 7  # the next stop: run 1, down, the 3rd target
+    v.rows.append({"run": 1, "direction": -1, "target_index": 4, "target_mm": 152.1, "reading_mm": 152.1024,
+                   "air_temp_c": 20.412, "air_pressure_hpa": 1012.81, "humidity_pct": 45.1, "material_temp_c": 20.205})
     v.question = Instruct("cycle_start", "Start the part program of this cycle (guideway gcode) with Cycle Start.",
                           {}, choices=("started", "abort"), key="start")
+    near = setup.measured_stops()[7].position + 0.0042  # the axis 4.2 um beyond it (raw)
+    s.apply(LiveReadingArrived(LiveReading(0.0, interferometer=ifm(position_mm=near, stry_um=0.0))))
     return s
 
 

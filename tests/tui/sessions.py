@@ -31,7 +31,10 @@ ENVIRONMENT_TOLERANCE = {"air_temp_c": 0.05, "air_pressure_hpa": 0.2, "humidity_
 
 
 def screen_name(app: Any) -> str:
-    return type(app.screen).__name__
+    """The class name of the screen on top; a device-fault dialog counts as the question dialog it is."""
+    from tui.screens.dialogs import QuestionScreen
+
+    return "QuestionScreen" if isinstance(app.screen, QuestionScreen) else type(app.screen).__name__
 
 
 async def press_start(pilot: Any, app: Any) -> None:

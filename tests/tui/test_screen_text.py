@@ -126,7 +126,7 @@ def test_after_a_redo_the_last_point_is_the_one_before_the_withdrawn_point() -> 
 
     text = show_screen(screen, check=lambda app: (widget_text(app, "#last"), widget_text(app, "#step")))
     assert text[0].startswith("last point: station 1  x 100 mm")
-    assert text[1].startswith("2 of ")
+    assert text[1].startswith("points 2 of ")
 
 
 def test_skipped_steps_count_as_done_in_the_progress() -> None:
@@ -169,7 +169,7 @@ def test_resumed_run_shows_the_points_on_disk(tmp_path: Path) -> None:
             return out
 
     step, last_text, progress = asyncio.run(main())
-    assert step.startswith(f"{len(points)} of ")
+    assert step.startswith(f"points {len(points)} of ")
     assert last_text.startswith(f"last point: station {int(last['station'])}  x {last['x_mm']:g} mm")
     assert progress == len(points)
 

@@ -15,7 +15,7 @@ from tests.tui.frozen import FAULT, JUMP, ROOT, RUNS, positioning_session, rotar
 from tests.tui.sessions import POSITIONING, STRAIGHTNESS
 from tests.waiting import wait_for_app
 from tui.app import GuidewayApp
-from tui.screens.dialogs import HelpScreen, QuestionScreen
+from tui.screens.dialogs import FaultScreen, HelpScreen, QuestionScreen
 from tui.screens.run import CaptureScreen, ConnectScreen
 
 SIZES = [(80, 24), (160, 48)]
@@ -106,7 +106,22 @@ def test_question_dialog(snap_compare, size) -> None:  # noqa: ANN001
 def test_fault_dialog(snap_compare, size) -> None:  # noqa: ANN001
     assert snap_compare(app(), terminal_size=size,
                         run_before=show(lambda _a: CaptureScreen(straightness_session("capture")),
-                                        lambda _a: QuestionScreen(FAULT)))
+                                        # the second failure in a row, 75 s after the first
+                                        lambda _a: FaultScreen(FAULT, 2, since=0.0, clock=lambda: 75.0)))
+
+
+@pytest.mark.parametrize("size", SIZES)
+def test_capture_while_busy(snap_compare, size) -> None:  # noqa: ANN001
+    """A capture running (no instruction): a second capture key is refused with the reason on screen."""
+
+    async def run_before(pilot) -> None:  # noqa: ANN001
+        await show(lambda _a: CaptureScreen(straightness_session("capture")))(pilot)
+        await pilot.press("space", "space")
+        await pilot.pause()
+        pilot.app.clear_notifications()
+        await pilot.pause()
+
+    assert snap_compare(app(), terminal_size=size, run_before=run_before)
 
 
 @pytest.mark.parametrize("size", SIZES)

@@ -12,7 +12,7 @@ from typing import Any
 
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.containers import Horizontal
+from textual.containers import Container, Horizontal, Vertical
 from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import Digits, Footer, Header, ProgressBar, Sparkline, Static
@@ -21,7 +21,7 @@ from acquisition.messages import Instruct
 
 from ..session import RunSession
 from ..widgets.plot import Plot, PlotData, Series
-from ..widgets.readout import bar, controller_state, readout_text, sensor_line
+from ..widgets.readout import bar, readout_text
 
 STATE_TEXT = {
     "connecting": "[b yellow]CONNECTING[/b yellow] — opening the devices",
@@ -29,6 +29,8 @@ STATE_TEXT = {
     "drifting": "[b yellow]DRIFTING[/b yellow] — waiting for the drift to settle",
     "stable": "[b green]STABLE[/b green] — warm-up done, setting the datum",
     "overridden": "[b magenta]OVERRIDDEN[/b magenta] — warm-up overridden by the operator (recorded in the run)",
+    "fault": "[b red]DEVICE FAULT[/b red] — the run is paused; see the dialog",
+    "paused": "[b yellow]PAUSED[/b yellow] — resume or abort in the dialog",
 }
 
 
@@ -71,17 +73,52 @@ class RunScreen(Screen):
 
     def choose(self, choice: str) -> None:
         q = self.instruction
-        if q is not None and choice in q.choices:
+        if q is None:
+            self.refuse(choice)
+        elif choice in q.choices:
             self.session.answer(choice)
             self.refresh_view()
 
+    def refuse(self, choice: str) -> None:
+        """A key pressed while the run is busy (capturing, paused, a device working): not queued (a second
+        capture would be taken where the block is not yet), refused with a message that stays on screen
+        until the next instruction."""
+        v = self.session.view
+        why = "the run is paused" if v.state == "paused" else f"busy ({self.busy_text()})"
+        v.refused = f"'{choice}' not taken: {why}; press it again when the screen asks"
+        self.notify(v.refused, severity="warning", timeout=4)
+        self.refresh_view()
+
+    def busy_text(self) -> str:
+        v = self.session.view
+        if not v.started:
+            return "opening the devices"
+        if self.session.info.kind == "straightness" and v.step is not None:
+            return f"capturing {self.session.where()}"
+        return "the devices are being read"
+
     def action_confirm(self) -> None:
         q = self.instruction
-        if q is not None:
+        if q is None:
+            self.refuse("capture" if isinstance(self, CaptureScreen) else "done")
+        else:
             self.choose(q.choices[0])
 
     def action_choose(self, choice: str) -> None:
-        self.choose(choice)
+        q = self.instruction
+        if q is None or choice not in ("redo", "skip"):
+            self.choose(choice)
+            return
+        ticket = self.session.view.ticket
+        title, text = self.confirm_text(choice, q)
+
+        def answered(yes: bool | None) -> None:
+            if yes and self.session.view.ticket == ticket and self.instruction is q:
+                self.choose(choice)
+
+        from .dialogs import ConfirmScreen
+
+        self.app.push_screen(ConfirmScreen(title, text), answered)
 
     def action_pause(self) -> None:
         self.session.pause()
@@ -94,14 +131,48 @@ class RunScreen(Screen):
 
         self.app.push_screen(ConfirmAbort(), answered)
 
+    def confirm_text(self, choice: str, q: Instruct) -> tuple[str, str]:
+        """The question before a redo or a skip (both change what is on disk)."""
+        p = q.params
+        if self.session.info.kind == "straightness" and "station" in p:
+            k, pass_ = int(p["station"]), int(p.get("pass", 0))
+            if choice == "redo":
+                steps = self.session.info.setup.steps() if self.session.info.setup is not None else []
+                i = steps.index((pass_, k)) if (pass_, k) in steps else 0
+                where = f"station {steps[i - 1][1]}{' (return)' if steps[i - 1][0] else ''}" if i > 0 \
+                    else "the previous station"
+                return (f"Redo {where}?", f"Its point is withdrawn from the run and the block goes back there to be "
+                        f"captured again (now at station {k}).")
+            return (f"Skip station {k}{' (return pass)' if pass_ else ''}?",
+                    "No point is captured there; the skip is recorded in run.json (skipped). Redo (r) at the next "
+                    "station brings it back.")
+        return (f"Skip {self.session.where()}?", "No point is captured there; the skip is recorded in run.json "
+                "(skipped).")
+
     def instruction_text(self) -> str:
         q = self.instruction
+        v = self.session.view
         if q is None:
-            return "[dim]working...[/dim]" if self.session.view.state != "paused" else "[yellow]paused[/yellow]"
+            if v.state == "paused":
+                what = "device fault: answer the dialog" if v.fault_since is not None else "answer the dialog"
+                return f"[b yellow]PAUSED[/b yellow] — {what}"
+            if v.warmup.get("state") == "drifting":
+                return self.warmup_text()
+            return "[dim]working...[/dim]"
         keys = {"capture": "Space", "done": "Space", "started": "Space", "redo": "r", "skip": "s", "pause": "p",
                 "abort": "a"}
         choices = "   ".join(f"[b]{escape(keys.get(c, c))}[/b] {escape(c)}" for c in q.choices)
         return f"{escape(q.text)}\n{choices}"
+
+    def warmup_text(self) -> str:
+        """What the warm-up waits for, where it is, and the override key."""
+        w = self.session.view.warmup
+        nan = math.nan
+        return (f"[b]Warm-up:[/b] waiting until the drift (peak to peak over the last {w.get('window')} readings) "
+                f"is below {w.get('max_drift_ifm_um', nan):g} um (interferometer straightness) and "
+                f"{w.get('max_drift_sensor_um', nan):g} um (sensor); now {w.get('drift_ifm_um', nan):.2f} / "
+                f"{w.get('drift_sensor_um', nan):.2f} um.\n[b]o[/b] override now (recorded in the run)   "
+                f"[b]a[/b] abort")
 
     def log_text(self, lines: int) -> str:
         return "\n".join(escape(line) for line in list(self.session.view.log)[-lines:])
@@ -157,6 +228,10 @@ class ConnectScreen(RunScreen):
 
     def state_key(self) -> str:
         v = self.session.view
+        if v.fault_since is not None:
+            return "fault"
+        if v.state == "paused":
+            return "paused"
         if not v.started:
             return "connecting"
         if v.warmup:
@@ -170,7 +245,8 @@ class ConnectScreen(RunScreen):
             w = v.warmup
             state += f"   [dim]{w['elapsed_s']:.0f} s, {w['readings']} readings (window {w['window']})[/dim]"
         self.query_one("#state", Static).update(state)
-        self.query_one("#instruction", Static).update(self.instruction_text())
+        refused = f"\n[b yellow]{escape(v.refused)}[/b yellow]" if v.refused else ""
+        self.query_one("#instruction", Static).update(self.instruction_text() + refused)
         self.query_one("#readout", Static).update(readout_text(v.reading, sensor=self.session.info.kind
                                                                == "straightness"))
         if self.session.info.warmup:
@@ -186,14 +262,65 @@ class ConnectScreen(RunScreen):
         self.query_one("#log", Static).update(self.log_text(3))
 
 
+LIGHT = {"moving": "[b red]● MOVING[/b red]", "settling": "[b yellow]◐ SETTLING[/b yellow]",
+         "stable": "[b green]○ STABLE[/b green]"}  # the word reads without colour
+WIDE = (120, 40)  # columns, rows from which the readings stand beside the plot
+
+
+def range_bar(value: float, lo: float, hi: float, width: int = 20) -> str:
+    """Where ``value`` lies in [lo, hi] as a bar with a marker (│ the middle); beyond an end red."""
+    if not (math.isfinite(value) and hi > lo):
+        return "[dim]" + "·" * width + "[/dim]"
+    f = (value - lo) / (hi - lo)
+    pos = min(width - 1, max(0, int(f * width)))
+    cells = ["·"] * width
+    cells[width // 2] = "│"
+    colour = "green" if 0.0 <= f <= 1.0 else "red"
+    cells[pos] = f"[b {colour}]█[/b {colour}]"
+    return "".join(cells)
+
+
+def beam_text(r: Any, sensor: bool) -> str:
+    """Beam and signal state of the live reading in words (not colour alone)."""
+    if r is None:
+        return "[dim]beam ? · waiting for a reading[/dim]"
+    ifm = r.interferometer
+    if ifm is None:
+        parts = ["[dim]beam: no reading yet[/dim]"]
+    else:
+        st = ifm.status
+        parts = ["beam OK" if st.beam_ok else "[b red]BEAM LOST[/b red]",
+                 "data valid" if st.data_valid else "[red]data not valid[/red]"]
+        if st.error or st.error_code:
+            parts.append(f"[red]error {st.error_code}[/red]")
+    if sensor:
+        st_s = r.sensor_status
+        parts.append("sensor ok" if st_s == "ok" else f"[red]sensor {escape(st_s or 'silent')}[/red]")
+    return " · ".join(parts)
+
+
+def distance_text(offset_um: float, near_um: float) -> str:
+    """Straightness: how far the block is from the station (µm near it, mm beyond 1 mm)."""
+    if not math.isfinite(offset_um):
+        return ""
+    if abs(offset_um) >= 1000.0:
+        return f"{abs(offset_um) / 1000.0:.3f} mm {'past' if offset_um > 0 else 'to'} the station"
+    where = "at the station" if abs(offset_um) <= near_um else "off the station"
+    return f"{offset_um:+.1f} um, {where}"
+
+
 class CaptureScreen(RunScreen):
-    """Capture: station k of N (or the target, run and direction), the instruction, a large live value,
-    the last point, progress and the live profile (positioning: deviations)."""
+    """Capture: where the run is (station k of N, or target i of m · run j of n · direction), the
+    instruction, the value the technician acts on in large digits (straightness: the live decoupled
+    surface height; positioning: the live compensated deviation from the target) with the distance to
+    the target, the stability light and auto-capture, beam and signal, the raw reading small, and the
+    live profile (positioning: deviations)."""
 
     SCREEN_NAME = "Capture"
     SUB_TITLE = SCREEN_NAME
-    BINDINGS = [Binding("space,enter", "confirm", "capture / done", key_display="Space"),
+    BINDINGS = [Binding("space,enter", "confirm", "capture", key_display="Space"),
                 Binding("r", "choose('redo')", "redo"), Binding("s", "choose('skip')", "skip"),
+                Binding("t", "auto", "auto-capture"),
                 Binding("p", "pause", "pause"), Binding("a", "abort", "abort")]
 
     def compose(self) -> ComposeResult:
@@ -202,39 +329,67 @@ class CaptureScreen(RunScreen):
             yield Static(id="step")
             yield ProgressBar(total=max(1, self.session.info.total_steps), show_eta=False, id="progress")
         yield Static(id="instruction", classes="instruction")
-        with Horizontal(id="live-row"):
-            yield Digits("", id="live")
-            yield Static(id="live-status")
-        yield Static(id="last")
-        yield Plot(id="plot")
+        with Container(id="capture-body"):
+            with Vertical(id="readings"):
+                with Horizontal(id="live-row"):
+                    with Vertical(id="live-box"):
+                        yield Digits("", id="live")
+                        yield Static(id="live-caption")
+                    yield Static(id="live-status")
+                yield Static(id="last")
+            yield Plot(id="plot")
         yield Static(id="log", classes="log")
         yield Footer()
 
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        if action == "auto":  # a positioning run captures by itself unless its trigger is manual
+            setup = self.session.info.setup
+            return setup is not None and (self.session.info.kind == "straightness" or setup.trigger.mode == "manual")
+        return super().check_action(action, parameters)
+
+    def action_auto(self) -> None:
+        on = self.session.toggle_auto_capture()
+        self.notify(f"auto-capture {'on: captures when the light is STABLE' if on else 'off'}")
+        self.refresh_view()
+
+    def on_resize(self) -> None:
+        w, h = self.size
+        wide = w >= WIDE[0] and h >= WIDE[1]
+        if wide != self.has_class("wide"):
+            self.set_class(wide, "wide")
+            self.refresh_view()
+
+    def points_done(self) -> int:
+        return self.session.info.points_before + self.session.view.points
+
     def step_text(self) -> str:
         info, v = self.session.info, self.session.view
-        q = self.instruction
-        p = q.params if q is not None else {}
+        done = info.points_before + v.points
         if info.kind == "straightness":
-            if "station" in p:
-                where = "return pass" if p.get("pass") else "forward pass"
-                return f"Station [b]{p['station']}[/b] of {info.stations - 1} · {where}"
-            return f"{info.points_before + v.points} of {info.total_steps} points"
-        if "target_index" in p:
-            arrow = "up (+)" if p.get("direction", 1) > 0 else "down (-)"
-            return f"Target [b]{p['target_index']}[/b] · run {p.get('run')} · {arrow}"
-        return f"{info.points_before + v.points} of {info.total_steps} points"
+            points = f"points {done} of {info.total_steps}"
+            if v.step is None:
+                return points
+            pass_, k = v.step
+            where = "return pass" if pass_ else "forward pass"
+            # stations are numbered from 0 (the datum): station k is the (k+1)-th of N
+            return f"Station [b]{k}[/b] (x = {k * info.step_mm:g} mm) · {k + 1} of {info.stations} stations · {where}"
+        stop = self.session.current_stop()
+        if stop is None:
+            return f"points {done} of {info.total_steps}"
+        arrow = "up (+)" if stop.direction > 0 else "down (-)"
+        return f"Target [b]{stop.target_index}[/b] of {info.targets} · run {stop.run} of {info.runs} · {arrow}"
 
     def last_text(self) -> str:
         v = self.session.view
         row = v.last_point
         if row is None:
-            return "last point: [dim]none yet[/dim]"
+            return f"last point: [dim]none yet   points {self.points_done()} of {self.session.info.total_steps}[/dim]"
         if "station" in row:
             h = self.session.view.heights.get((int(row.get("pass", 0)), int(row["station"])))
             height = f"  height {h:+.3f} um" if h is not None else ""
             return (f"last point: station {row['station']}{' (return)' if row.get('pass') else ''}  "
-                    f"x {row['x_mm']:g} mm  stry {row['stry_um']:+.3f} um  sensor {row['sensor_mm']:+.5f} mm"
-                    f"{height}")
+                    f"x {row['x_mm']:g} mm{height}   [dim]points {self.points_done()} of "
+                    f"{self.session.info.total_steps}[/dim]")
         unit = "deg" if "target_deg" in row else "mm"
         dev_unit = "arcsec" if unit == "deg" else "um"
         live = v.deviations.get((int(row["run"]), int(row["direction"]), int(row["target_index"])))
@@ -259,25 +414,72 @@ class CaptureScreen(RunScreen):
         return PlotData([Series(up, "green", "up"), Series(down, "yellow", "down")],
                         x_label=f"target ({info.unit}) · {unit}{what} · ↑ green ↓ yellow", y_label=unit)
 
+    def live_value(self) -> tuple[str, str]:
+        """The big number and its caption."""
+        v, info = self.session.view, self.session.info
+        value = v.live_value
+        if info.kind == "straightness":
+            text = f"{value:+.2f}" if math.isfinite(value) else "-.--"
+            if v.step is not None and not math.isfinite(value) and math.isfinite(v.offset):
+                return text, f"um · not at {self.session.where()}"
+            return text, f"height um · {self.session.where()}"
+        unit = "arcsec" if info.rotary else "um"
+        stop = self.session.current_stop()
+        if not math.isfinite(value) and math.isfinite(v.offset) and stop is not None:
+            return "-.--", f"{unit} · not at target {stop.target_index}"
+        text = f"{value:+.2f}" if math.isfinite(value) else "-.--"
+        return text, f"deviation {unit}, {short_label(v.live_label) or 'live'}"
+
+    def status_text(self) -> str:
+        """Beside the big number: stability light and auto-capture, the distance to the target, the sensor in
+        its range, beam and signal, the raw reading."""
+        v, info = self.session.view, self.session.info
+        r = v.reading
+        setup = info.setup
+        lines = []
+        rule = self.session.live().stability.rule if setup is not None else None
+        auto = "auto-capture [b]ON[/b]" if v.auto_capture else "auto-capture off"
+        if info.kind == "positioning" and setup is not None and setup.trigger.mode != "manual":
+            auto = f"capture: {setup.trigger.mode} trigger"
+        else:
+            auto += " [dim](t)[/dim]"
+        lines.append(f"{LIGHT.get(v.stability, v.stability)}  {auto}")
+        if info.kind == "straightness":
+            x = f"{r.interferometer.position_mm:.4f} mm" if r is not None and r.interferometer is not None else "-"
+            lines.append(f"x {x} · {distance_text(v.offset, rule.near if rule else math.inf)}")
+            lo, hi = info.sensor_range_mm
+            sensor = r.sensor_mm if r is not None else math.nan
+            value = f"{sensor:+.5f} mm" if math.isfinite(sensor) else "no value"
+            lines.append(f"sensor {value} {range_bar(sensor, lo, hi, 12)} [{lo:g}, {hi:g}]")
+        else:
+            stop = self.session.current_stop()
+            axis = info.axis_reading(r)
+            digits = 5 if info.rotary else 4
+            if stop is not None:
+                dist = f" · axis {v.offset:+.{digits}f} {info.unit} from it" if math.isfinite(v.offset) else ""
+                lines.append(f"target {stop.position:g} {info.unit}{dist}")
+            raw = f"{axis:+.{digits}f} {info.unit}" if math.isfinite(axis) else "-"
+            what = "angle" if info.rotary else "interferometer"
+            lines.append(f"[dim]raw {raw} = datum {info.datum:g} + {what}[/dim]")
+        lines.append(beam_text(r, info.kind == "straightness"))
+        if r is not None and r.problem:
+            lines.append(f"[red]{escape(r.problem)}[/red]")
+        if rule is not None and self.has_class("wide"):
+            lines.append(f"[dim]stable = {escape(rule.text())}[/dim]")
+        return "\n".join(lines)
+
     def refresh_view(self) -> None:
         v, info = self.session.view, self.session.info
         self.query_one("#step", Static).update(self.step_text())
         self.query_one("#progress", ProgressBar).update(progress=info.points_before + v.points + v.skipped)
-        self.query_one("#instruction", Static).update(self.instruction_text())
-        r = v.reading
-        if info.kind == "straightness":
-            value = f"{r.sensor_mm:+.4f}" if r is not None and math.isfinite(r.sensor_mm) else "-.----"
-            status = sensor_line(r).replace("sensor: ", "sensor mm\n", 1)
-        else:  # where the axis is, in the frame of the targets (the reading the plan records)
-            axis = info.axis_reading(r)
-            digits = 5 if info.rotary else 4  # 0.04 arcsec, 0.1 um
-            value = f"{axis:+.{digits}f}" if math.isfinite(axis) else "-." + "-" * digits
-            what = "angle" if info.rotary else "interferometer"
-            status = (f"axis {'angle' if info.rotary else 'position'} {info.unit} (datum {info.datum:g} + {what})\n"
-                      + controller_state(r))
+        instruction = self.instruction_text()
+        if v.refused:
+            instruction += f"\n[b yellow]{escape(v.refused)}[/b yellow]"
+        self.query_one("#instruction", Static).update(instruction)
+        value, caption = self.live_value()
         self.query_one("#live", Digits).update(value)
-        problem = f"\n[red]{escape(r.problem)}[/red]" if r is not None and r.problem else ""
-        self.query_one("#live-status", Static).update(status + problem)
+        self.query_one("#live-caption", Static).update(caption)
+        self.query_one("#live-status", Static).update(self.status_text())
         self.query_one("#last", Static).update(self.last_text())
         self.query_one("#plot", Plot).show(self.plot_data())
         self.query_one("#log", Static).update(self.log_text(2))
