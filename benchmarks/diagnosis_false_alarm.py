@@ -23,7 +23,10 @@ which it is only reported ambiguous with another effect: found, not attributed),
 being that of the generalised least-squares estimate under the true noise covariance, computed here:
 SE² = [(Xᵀ Σ⁻¹ X)⁻¹]_kk, X = [1, the effect's column], Σ_ij = σ² φ^|i−j| in time order.
 
-    python benchmarks/diagnosis_false_alarm.py --ar1 [--seeds 100] [--phi 0.7 0.9]
+    python benchmarks/diagnosis_false_alarm.py --ar1 [--seeds 100] [--phi 0.7 0.9] [--phi-known]
+
+``--phi-known`` gives the tests the true φ instead of the estimate from the run (the AR(1) estimator of
+processing/diagnosis/serial.py replaced for the benchmark): what estimating φ from the run costs.
 """
 
 from __future__ import annotations
@@ -185,10 +188,15 @@ def main() -> int:
     ap.add_argument("--sigma-um", type=float, default=0.2)
     ap.add_argument("--effect", choices=sorted(UNIT_EFFECTS), default="thermal_drift")
     ap.add_argument("--se", type=float, default=5.0, help="size of the hidden effect in standard errors")
+    ap.add_argument("--phi-known", action="store_true", help="--ar1: the tests whitened with the true phi")
     args = ap.parse_args()
     if args.ar1:
         with tempfile.TemporaryDirectory() as tmp:
             for phi in args.phi:
+                if args.phi_known:
+                    from processing.diagnosis import serial
+                    serial.ar1_coefficient = lambda *_a, _phi=phi, **_k: _phi  # the oracle: the true phi
+                    print(f"(the tests use the true phi {phi}, not an estimate)")
                 count_ar1(phi, args.seeds, args.sigma_um, args.effect, Path(tmp), args.se)
         return 0
     with tempfile.TemporaryDirectory() as tmp:
