@@ -86,6 +86,22 @@ class Rule:
                 "excluded": list(self.excluded)}
 
 
+
+POSITIONING_RULE = Rule(alpha=5e-3, bic_margin=6.0)
+"""The rule of positioning runs (docs/diagnosis.md, "Detection and false alarms").  A one-parameter effect
+of δ standard errors passes the F-test with probability ≈ Φ(δ − z_c), z_c = Φ⁻¹(1 − α / 2K) (K ≈ 10
+candidates); at α = 0.001 (z_c = 3.9) and a BIC margin of 10 (z² ≥ 10 + ln n, z ≥ 3.9 at n = 210) both
+criteria bind at once and a 5-SE effect passes 86 times in 100.  α = 0.005 (z_c = 3.5, Φ(1.5) = 0.93; the
+family-wise false-alarm bound half the 1-in-100 target) with a margin of 6 (Kass & Raftery's "strong";
+z ≥ 3.4 at n = 210, so the calibrated F-test binds), which also bounds the chance of naming the wrong one
+of two correlated alternatives by Φ(−√6) = 0.007.  Straightness runs keep the stricter default: their
+F-tests' tail is heavier than the bound (measured, same document)."""
+
+
+def default_rule(kind: str) -> Rule:
+    """The selection rule of a run of ``kind`` ("positioning" or "straightness")."""
+    return POSITIONING_RULE if kind == "positioning" else Rule()
+
 # -- noise --------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Noise:

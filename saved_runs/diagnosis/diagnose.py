@@ -20,7 +20,7 @@ import numpy as np
 from processing.air_index import air_index
 from processing.decoupling import decouple, sensor_height_um
 from processing.diagnosis.observations import Observations, positioning_observations, straightness_observations
-from processing.diagnosis.select import ChannelDiagnosis, Rule, diagnose_channel
+from processing.diagnosis.select import ChannelDiagnosis, Rule, default_rule, diagnose_channel
 from processing.effects import Effect
 from processing.environment import EnvironmentSettings
 from processing.passes import check_order
@@ -280,7 +280,7 @@ def diagnose_run(run_dir: Path | str, model: EffectModel | Path | str | None = N
     channels, notes = [], [f"accepted outside the set-up's limits: {a.text()}" for a in accepted]
     observed = run_observations(run, model)
     usable = [obs for obs in observed if obs.n >= 3]
-    rule = replace(rule or Rule(), channels=len(usable))  # alpha is shared by the channels of the run
+    rule = replace(rule or default_rule(run.kind), channels=len(usable))  # alpha is shared by the channels
     for obs in observed:
         notes += obs.notes
         effects = [e for e in model.effects if e.spec.channel == obs.channel]

@@ -68,6 +68,45 @@ def test_a_drift_under_ar1_noise_is_still_named(tmp_path: Path) -> None:
         assert d.named == ["thermal_drift"], (seed, d.named, d.ambiguous)
 
 
+
+def drift_run_at_5_se(tmp_path: Path, seed: int) -> tuple[Path, float]:
+    """A run hiding a thermal drift of 5 standard errors in white noise of σ 0.2 µm, and the drift's
+    t-statistic computed here by ordinary least squares with an offset (the estimate over its standard error)."""
+    rows = linear_cycle(TARGETS_MM, 5)
+    t = np.array([r["time_s"] for r in rows]) / 60.0
+    t -= t.min()
+    rate = 5.0 * gls_se_um_per_min(t, 0.0)
+    noise = ar1(len(rows), 0.0, 700 + seed)
+    x = np.column_stack([np.ones_like(t), t])
+    y = rate * t + noise
+    coef, rss = np.linalg.lstsq(x, y, rcond=None)[:2]
+    se = math.sqrt(float(rss[0]) / (len(y) - 2) * np.linalg.inv(x.T @ x)[1, 1])
+    return write_run(tmp_path / f"drift{seed}", rows, [("thermal_drift", {"um_per_min": rate})], seed=seed,
+                     noise_um=noise), float(coef[1] / se)
+
+
+def test_a_drift_seen_at_3_5_to_3_9_standard_errors_is_named(tmp_path: Path) -> None:
+    """Runs where a 5-SE drift came out between 3.5 and 3.9 standard errors: the former rule (α = 0.001 and
+    a BIC margin of 10: both need t ≳ 3.9 on 210 points) missed them; the positioning rule (α = 0.005 over
+    ~10 candidates: t ≥ 3.5; margin 6: t² ≥ 6 + ln 210, t ≥ 3.4) names them (docs/diagnosis.md)."""
+    for seed in (12, 16, 36):
+        run, t_stat = drift_run_at_5_se(tmp_path, seed)
+        assert 3.5 < t_stat < 3.95, (seed, t_stat)
+        d = diagnose(run)
+        assert d.named == ["thermal_drift"], (seed, t_stat, d.named, d.ambiguous)
+
+
+def test_a_drift_of_5_standard_errors_is_found_in_at_least_37_of_40_runs(tmp_path: Path) -> None:
+    """Power of the rule: a 5-SE effect passes a test of critical value z_c with probability Φ(5 − z_c):
+    Φ(1.5) = 0.93 at z_c = 3.5 (37.3 of 40 expected; the former rule, z_c = 3.9: Φ(1.1) = 0.86, 34.5).
+    Found = named, or reported ambiguous with thermal_growth (P·t is correlated 0.6 with t on this cycle:
+    the run can only separate them by √(1 − 0.6²)·5 ≈ 4 standard errors, so some runs honestly cannot)."""
+    found = []
+    for seed in range(40):
+        d = diagnose(drift_run_at_5_se(tmp_path, seed)[0])
+        found.append("thermal_drift" in d.named or any("thermal_drift" in g for g in d.ambiguous))
+    assert sum(found) >= 37, [s for s, f in enumerate(found) if not f]
+
 # -- 7. JSON ------------------------------------------------------------------------------------------------
 def test_json_keeps_the_effects_own_channel_and_labels_the_candidates(tmp_path: Path) -> None:
     """An Abbe effect acts through the pitch: its own ``channel`` stays ``pitch`` in final.model, the channel
