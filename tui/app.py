@@ -65,12 +65,13 @@ class GuidewayApp(App[None]):
     def __init__(self, *, setup_source: dict[str, Any] | None = None, setup_path: Path | None = None,
                  out: Path | None = None, runs_dir: Path = Path("runs"), simulate: bool = False, seed: int = 0,
                  noise: bool = True, faults: str | None = None, start: str = "setup",
-                 live_interval_s: float = 0.05) -> None:
+                 live_interval_s: float = 0.05, catalog_url: str | None = None) -> None:
         super().__init__()
         self.setup_source = setup_source
         self.setup_path = setup_path
         self.out = out
         self.runs_dir = Path(runs_dir)
+        self.catalog_url = catalog_url  # None: GUIDEWAY_CATALOG, if set (docs/fleet.md)
         self.simulate = simulate
         self.sim_args = (seed, noise, faults)
         self.start = start
@@ -82,7 +83,7 @@ class GuidewayApp(App[None]):
     def on_mount(self) -> None:
         self.install_screen(SetupScreen(self.setup_source, setup_path=self.setup_path, out=self.out,
                                         simulate=self.simulate), name="setup")
-        self.install_screen(RunsScreen(self.runs_dir), name="runs")
+        self.install_screen(RunsScreen(self.runs_dir, self.catalog_url), name="runs")
         self.push_screen(self.start)
 
     # -- navigation ------------------------------------------------------------------------------
