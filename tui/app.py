@@ -85,6 +85,18 @@ class GuidewayApp(App[None]):
                                         simulate=self.simulate), name="setup")
         self.install_screen(RunsScreen(self.runs_dir, self.catalog_url), name="runs")
         self.push_screen(self.start)
+        self.call_after_refresh(self._preload)
+
+    def _preload(self) -> None:
+        """Import the acquisition stack in a thread once the first frame is drawn, while the technician
+        reads the form: F5 then finds it loaded (an F5 before it is done waits on Python's import lock,
+        no longer than it would without this)."""
+        import threading
+
+        def load() -> None:
+            import tui.screens.run  # noqa: F401  (the run screens and the session: acquisition, numpy, pandas)
+
+        threading.Thread(target=load, name="preload-acquisition", daemon=True).start()
 
     # -- navigation ------------------------------------------------------------------------------
     def _switch(self, screen: Any) -> None:
