@@ -21,7 +21,7 @@ def setup_catalog_url(source: dict[str, Any] | None) -> str | None:
 def add_completed_run(run_dir: Path | str, setup_url: str | None, stream: TextIO) -> str | None:
     """Add ``run_dir`` to the configured catalogue; return the one line printed on ``stream`` (None: no
     catalogue configured)."""
-    from fleet.catalog.database import configured_url
+    from fleet.catalog.config import configured_url
 
     url = configured_url(setup_url)
     if url is None:

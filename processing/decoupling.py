@@ -31,12 +31,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from .geometry import DATUM_AXES, BlockGeometry
+
+if TYPE_CHECKING:  # the live display decouples rows without pandas; whole runs bring it
+    import pandas as pd
 
 METHODS: tuple[str, ...] = ("exact", "first-order", "patent")
 DEFAULT_METHOD = "exact"
@@ -311,6 +313,8 @@ def decouple_run(points: pd.DataFrame, geometry: BlockGeometry, method: str = DE
         datum = datum_angles_of(ch, setup)
         setup = replace(setup, datum_urad=(datum.roll_urad, datum.yaw_urad, datum.pitch_urad))  # estimated once
     x, h = DECOUPLERS[method](ch, setup)
+    import pandas as pd
+
     profile = pd.DataFrame({"station": points["station"].to_numpy(dtype=int), "x_mm": x, "height_um": h})
     return Decoupled(profile, ch, datum)
 

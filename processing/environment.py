@@ -22,12 +22,14 @@ two beam paths in the same air, in which the index cancels.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from .air_index import DEFAULT_CO2_PPM, DEFAULT_EQUATION, EQUATION_NAMES, HENE_WAVELENGTH_NM, air_index
+
+if TYPE_CHECKING:  # the set-up loaders import the settings: pandas only with points
+    import pandas as pd
 
 REFERENCE_TEMP_C = 20.0
 

@@ -20,10 +20,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:  # the set-up loaders use the target rules; pandas only with deviations
+    import pandas as pd
 
 DEFAULT_EDITION = "ISO 230-2:2014"
 # Editions whose formulas are the ones implemented (1988 used ±3 s and is not supported).
@@ -291,6 +293,8 @@ def iso230_2_from_arrays(
         "U_max": _nanmax(U),
         "U_mean": float(np.mean(U)) if np.all(np.isfinite(U)) else math.nan,
     }
+
+    import pandas as pd
 
     per_target = pd.DataFrame({
         "target_index": np.arange(1, m + 1),

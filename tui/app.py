@@ -65,12 +65,13 @@ class GuidewayApp(App[None]):
     def __init__(self, *, setup_source: dict[str, Any] | None = None, setup_path: Path | None = None,
                  out: Path | None = None, runs_dir: Path = Path("runs"), simulate: bool = False, seed: int = 0,
                  noise: bool = True, faults: str | None = None, start: str = "setup",
-                 live_interval_s: float = 0.05) -> None:
+                 live_interval_s: float = 0.05, catalog_url: str | None = None) -> None:
         super().__init__()
         self.setup_source = setup_source
         self.setup_path = setup_path
         self.out = out
         self.runs_dir = Path(runs_dir)
+        self.catalog_url = catalog_url  # None: GUIDEWAY_CATALOG, if set (docs/fleet.md)
         self.simulate = simulate
         self.sim_args = (seed, noise, faults)
         self.start = start
@@ -82,8 +83,20 @@ class GuidewayApp(App[None]):
     def on_mount(self) -> None:
         self.install_screen(SetupScreen(self.setup_source, setup_path=self.setup_path, out=self.out,
                                         simulate=self.simulate), name="setup")
-        self.install_screen(RunsScreen(self.runs_dir), name="runs")
+        self.install_screen(RunsScreen(self.runs_dir, self.catalog_url), name="runs")
         self.push_screen(self.start)
+        self.call_after_refresh(self._preload)
+
+    def _preload(self) -> None:
+        """Import the acquisition stack in a thread once the first frame is drawn, while the technician
+        reads the form: F5 then finds it loaded (an F5 before it is done waits on Python's import lock,
+        no longer than it would without this)."""
+        import threading
+
+        def load() -> None:
+            import tui.screens.run  # noqa: F401  (the run screens and the session: acquisition, numpy, pandas)
+
+        threading.Thread(target=load, name="preload-acquisition", daemon=True).start()
 
     # -- navigation ------------------------------------------------------------------------------
     def _switch(self, screen: Any) -> None:

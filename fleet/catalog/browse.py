@@ -9,7 +9,8 @@ from pathlib import Path
 
 from saved_runs.catalog.folder import RunSummary
 
-from .database import configured_url, open_catalog
+from .config import configured_url
+from .database import open_catalog
 from .entry import Entry
 from .runs import list_entries
 

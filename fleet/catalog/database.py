@@ -8,7 +8,6 @@ SQLAlchemy is imported here and only here, lazily by the commands that open a ca
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -17,7 +16,8 @@ import sqlalchemy as sa
 
 from saved_runs.errors import UserError
 
-ENV_VAR = "GUIDEWAY_CATALOG"
+from .config import configured_url
+
 SCHEMA_VERSION = 1  # raise it with every change of the tables below (and say in docs/fleet.md what changed)
 CONNECT_TIMEOUT_S = 10  # a PostgreSQL server that does not answer: give up after this long
 
@@ -57,15 +57,6 @@ def default_url() -> str:
     import platformdirs
 
     return f"sqlite:///{Path(platformdirs.user_data_dir('guideway', appauthor=False)) / 'catalog.sqlite'}"
-
-
-def configured_url(given: str | None = None) -> str | None:
-    """The catalogue named by ``given`` (``--catalog`` or a set-up's ``[catalog] url``) or by the
-    ``GUIDEWAY_CATALOG`` environment variable; None when neither names one."""
-    for url in (given, os.environ.get(ENV_VAR)):
-        if url and url.strip():
-            return url.strip()
-    return None
 
 
 def catalog_url(given: str | None = None) -> str:

@@ -26,16 +26,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from processing.environment import EnvironmentSettings, angular_deviation_deg
 
 from ..errors import RunFormatError, SetupError
 from ..store.reader import LoadedRun
 from .air import RANGES as AIR_INDEX_RANGES
+
+if TYPE_CHECKING:  # the set-up loaders import this module: pandas only where points are checked
+    import pandas as pd
 
 ARROW = {1: "up (+)", -1: "down (-)"}
 POSITIONING_DEFAULT_LIMIT = {"linear": 1.0, "rotary": 0.1}  # mm, deg (the positioning set-up's defaults)

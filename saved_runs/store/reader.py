@@ -10,14 +10,15 @@ import io
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
-
-import pandas as pd
+from typing import TYPE_CHECKING, Any
 
 from processing.columns import OPTIONAL_DEFAULTS
 
 from ..errors import RunFormatError
 from .format import FORMAT, KINDS, SUPPORTED_VERSIONS, point_columns
+
+if TYPE_CHECKING:  # pandas when points are read, not when the set-up loaders import LoadedRun
+    import pandas as pd
 
 
 @dataclass(frozen=True)
@@ -118,6 +119,8 @@ def _read_points(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame, li
                 data[c].append(float(row[i]))
             except ValueError:
                 raise RunFormatError(f"{path}:{lineno}: column {c} is not a number: {row[i]!r}") from None
+    import pandas as pd
+
     df = pd.DataFrame(data, columns=list(columns))
     for c, v in defaults.items():
         df[c] = v

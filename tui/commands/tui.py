@@ -1,6 +1,6 @@
 """``guideway tui``: the Textual TUI (set-up, guided capture, results, saved runs).
 
-    guideway tui [--simulate] [--setup SETUP.toml] [--out RUN_DIR] [--runs DIR]
+    guideway tui [--simulate] [--setup SETUP.toml] [--out RUN_DIR] [--runs DIR] [--catalog URL]
 """
 
 from __future__ import annotations
@@ -30,7 +30,8 @@ def run(args: argparse.Namespace) -> int:
     from tui.app import GuidewayApp  # Textual only now: the rest of the command line never loads it
 
     app = GuidewayApp(setup_source=source, setup_path=args.setup, out=args.out, runs_dir=args.runs,
-                      simulate=args.simulate, seed=args.seed, noise=not args.no_noise, faults=args.faults)
+                      simulate=args.simulate, seed=args.seed, noise=not args.no_noise, faults=args.faults,
+                      catalog_url=args.catalog)
     app.run()
     return 0
 
@@ -41,6 +42,8 @@ def register(sub) -> None:  # noqa: ANN001
     t.add_argument("--setup", type=Path, default=None, help="open with this set-up file (TOML) loaded")
     t.add_argument("--out", type=Path, default=None, help="run directory of the next run (default RUNS/KIND-<time>)")
     t.add_argument("--runs", type=Path, default=Path("runs"), help="folder the run browser lists (default runs/)")
+    t.add_argument("--catalog", default=None, metavar="URL",
+                   help="the runs browser lists this catalogue (default GUIDEWAY_CATALOG, if set; docs/fleet.md)")
     t.add_argument("--seed", type=seed_arg, default=0, help="--simulate: seed of the simulated world (default 0)")
     t.add_argument("--no-noise", action="store_true", help="--simulate: switch the instrument noise off")
     t.add_argument("--faults", default=None, metavar="SPEC",

@@ -1,4 +1,12 @@
-"""Runs screen: the saved runs of the runs folder; open one into Results, or resume an unfinished one.
+"""Runs screen: the saved runs of the runs folder, or of the catalogue when one is configured
+(``--catalog`` / ``GUIDEWAY_CATALOG``, docs/fleet.md); open one into Results, resume an unfinished
+one, mark two and compare them, open the trend of the selected run's axis.
+
+With a catalogue, ``m`` and ``a`` step the machine and axis filters through what the catalogue
+holds and ``l`` switches between the catalogue and the folder.  Space marks a run (two at most);
+``x`` compares the two marked runs, the older as A (before) and the newer as B (after).  The
+catalogue is read in a worker (SQLAlchemy and a database server take their time), so the screen
+paints at once.
 
 Below 120 columns each run takes two lines (its name over its creation time, its kind over its axis),
 so that every column fits an 80-column terminal; the machine column takes the width that is left
@@ -11,13 +19,16 @@ from __future__ import annotations
 from pathlib import Path
 
 from rich.text import Text
+from textual import work
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Static
 
+from fleet.catalog.config import configured_url
 from saved_runs.catalog.folder import DAMAGED, RunSummary, list_runs  # no pandas: the browser paints at once
+from saved_runs.errors import UserError
 
 NAME_WIDTH = 32
 KIND_WIDTH = 12
@@ -32,6 +43,9 @@ class RunsScreen(Screen):
     SCREEN_NAME = "Runs"
     SUB_TITLE = SCREEN_NAME
     BINDINGS = [Binding("enter", "open", "open results"), Binding("c", "resume", "continue (resume)"),
+                Binding("space", "mark", "mark"), Binding("x", "compare", "compare marked"),
+                Binding("t", "trend", "trend"), Binding("m", "filter('machine')", "machine"),
+                Binding("a", "filter('axis')", "axis"), Binding("l", "source", "folder/catalogue"),
                 Binding("r", "reload", "reload"), Binding("f2", "app.setup", "set-up"),
                 # the first / last run (the table's own Home / End scroll sideways)
                 Binding("home,ctrl+home", "edge(0)", "first run", show=False, priority=True),
@@ -40,9 +54,17 @@ class RunsScreen(Screen):
     RunsScreen #run-detail { height: 2; padding: 0 1; background: $boost; }
     """
 
-    def __init__(self, runs_dir: Path) -> None:
+    def __init__(self, runs_dir: Path, catalog_url: str | None = None) -> None:
         super().__init__()
         self.runs_dir = Path(runs_dir)
+        self.catalog_url = configured_url(catalog_url)  # None: no catalogue, the folder only
+        self.from_catalog = self.catalog_url is not None
+        self.machine: str | None = None  # the catalogue's filters (None: any)
+        self.axis: str | None = None
+        self.machines: list[str] = []
+        self.axes: list[str] = []
+        self.catalog_problem = ""
+        self.marked: list[Path] = []  # at most two, in the order they were marked
         self.runs: list[RunSummary] = []
 
     def compose(self) -> ComposeResult:
@@ -62,9 +84,39 @@ class RunsScreen(Screen):
         self.action_reload()
 
     def action_reload(self) -> None:
+        if self.from_catalog:
+            self.query_one("#runs-title", Static).update(f"reading the catalogue {escape(str(self.catalog_url))} ...")
+            self.read_catalog()
+        else:
+            self.show_runs(list_runs(self.runs_dir))
+
+    @work(thread=True, exclusive=True, group="catalogue")
+    def read_catalog(self) -> None:
+        from fleet.catalog.browse import CatalogFilter, browse_catalog
+
+        try:
+            view = browse_catalog(self.catalog_url, CatalogFilter(self.machine, self.axis))
+        except UserError as exc:
+            self.app.call_from_thread(self.catalog_failed, str(exc))
+            return
+        self.app.call_from_thread(self.catalog_read, view.runs, view.machines, view.axes)
+
+    def catalog_read(self, runs: list[RunSummary], machines: list[str], axes: list[str]) -> None:
+        self.machines, self.axes, self.catalog_problem = machines, axes, ""
+        self.show_runs(runs)
+
+    def catalog_failed(self, message: str) -> None:
+        """The catalogue cannot be read: say so, and show the folder meanwhile."""
+        self.catalog_problem = message
+        self.from_catalog = False
+        self.show_runs(list_runs(self.runs_dir))
+        self.refresh_bindings()
+
+    def show_runs(self, runs: list[RunSummary]) -> None:
         table = self.query_one(DataTable)
         keep = self.selected()
-        self.runs = list_runs(self.runs_dir)
+        self.runs = runs
+        self.marked = [p for p in self.marked if any(r.path == p for r in runs)]
         table.clear(columns=True)
         width = self.app.size.width
         wide = width >= WIDE
@@ -78,23 +130,97 @@ class RunsScreen(Screen):
         for label, w in zip(labels, [*widths, machine_w], strict=True):
             table.add_column(label, width=w)
         for r in self.runs:
-            # as they are (a str cell would be read as markup), cut to the column
+            # as they are (a str cell would be read as markup), cut to the column; a marked run starts with *
+            name = ("* " if r.path in self.marked else "") + r.path.name
             created = r.created.replace("T", " ").removesuffix("Z")
             status = Text(r.status or "?", style="bold" if r.status == DAMAGED else "")
-            points = Text(r.points_text, justify="right")
+            # the catalogue keeps no point count: the folder's browser counts them on disk
+            points = Text("-" if self.from_catalog else r.points_text, justify="right")
             if wide:
-                table.add_row(Text(r.path.name[:name_w]), Text(created), Text(f"{r.kind or '?'} · {r.axis or '-'}"),
+                table.add_row(Text(name[:name_w]), Text(created), Text(f"{r.kind or '?'} · {r.axis or '-'}"),
                               status, points, Text(r.machine))
             else:
-                table.add_row(Text(f"{r.path.name[:name_w]}\n{created}"), Text(f"{r.kind or '?'}\n{r.axis or '-'}"),
+                table.add_row(Text(f"{name[:name_w]}\n{created}"), Text(f"{r.kind or '?'}\n{r.axis or '-'}"),
                               status, points, Text(r.machine), height=2)
-        n = len(self.runs)
-        self.query_one("#runs-title", Static).update(
-            f"{n} run(s) in {escape(str(self.runs_dir))} · Enter opens the results" if n
-            else f"no runs in {escape(str(self.runs_dir))} yet (F2: set up a run)")
+        self.query_one("#runs-title", Static).update(self.title_text())
         if keep is not None:
             table.move_cursor(row=next((i for i, r in enumerate(self.runs) if r.path == keep.path), 0))
         self.show_detail()
+
+    def title_text(self) -> str:
+        n = len(self.runs)
+        if self.from_catalog:
+            where = f"the catalogue {escape(str(self.catalog_url))}"
+            filters = [f"{what} {escape(v)}" for what, v in (("machine", self.machine), ("axis", self.axis)) if v]
+            where += f" ({', '.join(filters)})" if filters else ""
+        else:
+            where = escape(str(self.runs_dir))
+        problem = f"[b]catalogue: {escape(self.catalog_problem)}[/b]\n" if self.catalog_problem else ""
+        marked = f" · {len(self.marked)} marked" if self.marked else ""
+        if not n:
+            return problem + f"no runs in {where} yet (F2: set up a run)"
+        return problem + f"{n} run(s) in {where}{marked} · Enter opens the results"
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        """Only the keys that work now are offered (and listed by ? and the footer)."""
+        if action in ("trend", "filter"):
+            return self.from_catalog
+        if action == "source":
+            return self.catalog_url is not None
+        if action == "compare":
+            return len(self.marked) == 2
+        return True
+
+    def action_mark(self) -> None:
+        """Mark or unmark the selected run; a third mark replaces the oldest."""
+        r = self.selected()
+        if r is None:
+            return
+        if r.path in self.marked:
+            self.marked.remove(r.path)
+        else:
+            self.marked = [*self.marked, r.path][-2:]
+        self.show_runs(self.runs)
+        self.refresh_bindings()
+
+    def action_compare(self) -> None:
+        """The two marked runs side by side: the older is A (before), the newer B (after)."""
+        if len(self.marked) != 2:
+            self.notify("mark two runs with Space first", severity="warning")
+            return
+        from .compare import CompareScreen
+
+        created = {r.path: r.created for r in self.runs}
+        a, b = sorted(self.marked, key=lambda p: created.get(p, ""))
+        self.app.push_screen(CompareScreen(a, b))
+
+    def action_trend(self) -> None:
+        r = self.selected()
+        if r is None or not self.from_catalog:
+            return
+        from fleet.catalog.browse import DEFAULT_TREND_VALUE
+
+        from .trend import TrendScreen
+
+        self.app.push_screen(TrendScreen(self.catalog_url, r.machine, r.axis, DEFAULT_TREND_VALUE.get(r.kind, "E")))
+
+    def action_filter(self, which: str) -> None:
+        """Step the machine or axis filter: any, then each value the catalogue holds, then any again."""
+        choices: list[str | None] = [None, *(self.machines if which == "machine" else self.axes)]
+        now = self.machine if which == "machine" else self.axis
+        following = choices[(choices.index(now) + 1) % len(choices)] if now in choices else None
+        if which == "machine":
+            self.machine, self.axis = following, None  # the axes differ from machine to machine
+        else:
+            self.axis = following
+        self.action_reload()
+
+    def action_source(self) -> None:
+        """Switch between the catalogue and the runs folder."""
+        self.from_catalog = not self.from_catalog
+        self.catalog_problem = ""
+        self.action_reload()
+        self.refresh_bindings()
 
     def show_detail(self) -> None:
         """The selected run's status in full, under the table."""
