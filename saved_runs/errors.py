@@ -20,3 +20,19 @@ class SetupError(UserError):
 
 # Every failure the command line reports as one line with exit code 2 (no traceback).
 EXPECTED_ERRORS: tuple[type[Exception], ...] = (UserError, DriverError)
+
+
+class FileWriteError(UserError):
+    """A file could not be written (disk full, read-only, no permission): the message names the file.
+
+    ``path``: the file meant (not a temporary name); ``errno``: the system's error number."""
+
+    def __init__(self, path: object, exc: OSError) -> None:
+        import errno as errnos
+
+        self.path = path
+        self.errno = exc.errno
+        self.reason = exc.strerror or str(exc)
+        hint = (" (the disk is full: free some space, then run the command again)"
+                if exc.errno in (errnos.ENOSPC, errnos.EDQUOT) else "")
+        super().__init__(f"cannot write {path}: {self.reason}{hint}")
