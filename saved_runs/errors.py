@@ -33,6 +33,6 @@ class FileWriteError(UserError):
         self.path = path
         self.errno = exc.errno
         self.reason = exc.strerror or str(exc)
-        hint = (" (the disk is full: free some space, then run the command again)"
+        hint = (" (the disk is full: free some space on it)"
                 if exc.errno in (errnos.ENOSPC, errnos.EDQUOT) else "")
         super().__init__(f"cannot write {path}: {self.reason}{hint}")
