@@ -78,8 +78,22 @@ def write_text_atomic(path: Path | str, text: str) -> None:
 
 
 def write_json_atomic(path: Path | str, obj: Any) -> None:
-    """Replace ``path`` with ``obj`` as JSON (no NaN), atomically (:func:`write_text_atomic`)."""
-    write_text_atomic(path, json.dumps(obj, indent=2, allow_nan=False) + "\n")
+    """Replace ``path`` with ``obj`` as JSON (no NaN), atomically (:func:`write_atomic`).  Encoded
+    piece by piece into the file: the summary of a 100 000-station run is never held as one string."""
+
+    def write(f: BinaryIO) -> None:
+        pieces: list[str] = []
+        size = 0
+        for piece in json.JSONEncoder(indent=2, allow_nan=False).iterencode(obj):  # as json.dumps(indent=2)
+            pieces.append(piece)
+            size += len(piece)
+            if size >= 1 << 16:
+                f.write("".join(pieces).encode("utf-8"))
+                pieces, size = [], 0
+        pieces.append("\n")
+        f.write("".join(pieces).encode("utf-8"))
+
+    write_atomic(path, write)
 
 
 def temp_owner_alive(name: str) -> bool:
