@@ -24,6 +24,8 @@ cycle order) so a resumed run can restart the program at the right block.
 
 from __future__ import annotations
 
+from saved_runs import nc_text
+
 from .setup.positioning import PositioningSetup
 
 INPOS_MCODE = 100
@@ -38,17 +40,26 @@ def _num(v: float, decimals: int = 4) -> str:
 
 
 def part_program(setup: PositioningSetup) -> str:
-    """The complete part program text (lines end with newline)."""
+    """The complete part program text (lines end with newline).
+
+    Every string in it is checked against what the controller accepts (saved_runs.nc_text): the axis
+    letter, the program number and each comment; anything else is a :class:`UserError`."""
     fanuc = setup.dialect == "fanuc"
-    ax, u, tr = setup.axis_name.upper(), setup.unit, setup.trigger
+    ax = nc_text.axis_letter(setup.axis_name, "the set-up's [axis] name")
+    u, tr = setup.unit, setup.trigger
     stops = setup.stops()
     lines: list[str] = []
-    c = (lambda t: f"({t.upper()})") if fanuc else (lambda t: f"({t})")
+
+    def c(text: str) -> str:
+        text = nc_text.comment(text, "a part-program comment")
+        return f"({text.upper()})" if fanuc else f"({text})"
+
     # "linear cycle" is the standard's name of its standard test cycle, not the axis type: say which
     # cycle in words that cannot be read as the axis (no nested parentheses in a G-code comment)
     title = f"guideway ISO 230-2 {CYCLE_TITLES[setup.cycle]}, {setup.axis_type} axis {ax}"
     if fanuc:
-        lines += ["%", f"O{setup.program_number:04d} {c(title)}"]
+        number = nc_text.program_number(setup.program_number, "the set-up's [gcode] program_number")
+        lines += ["%", f"O{number:04d} {c(title)}"]
     else:
         lines.append(c(title))
     lines.append(c(f"{len(setup.targets)} targets, {setup.runs} runs each direction, overrun {_num(setup.overrun)} "
@@ -72,10 +83,11 @@ def part_program(setup: PositioningSetup) -> str:
                           f"IF[#1000EQ0]THEN#3000={INPOS_ALARM}({INPOS_ALARM_TEXT})"]
             else:
                 # no comment on an O-word line, one O number per if-block (LinuxCNC O-code rules)
+                msg = nc_text.comment(f"MSG, guideway: no acknowledge within {_num(tr.timeout_s, 1)} s at run "
+                                      f"{s.run} {arrow} target {s.target_index}, program ended, check the tool "
+                                      "and its Modbus link", "a part-program message")
                 lines += [f"M68 E0 Q{s.target_index}", f"M68 E1 Q{s.run}", f"M68 E2 Q{s.direction}", "M64 P0",
-                          f"M66 P0 L3 Q{_num(tr.timeout_s, 1)}", "M65 P0", f"o{k} if [#5399 LT 0]",
-                          f"(MSG, guideway: no acknowledge within {_num(tr.timeout_s, 1)} s at run {s.run} "
-                          f"{arrow} target {s.target_index}; program ended, check the tool and its Modbus link)",
+                          f"M66 P0 L3 Q{_num(tr.timeout_s, 1)}", "M65 P0", f"o{k} if [#5399 LT 0]", f"({msg})",
                           "M2", f"o{k} endif"]
         elif tr.mode == "manual":
             lines.append("M00")

@@ -188,7 +188,11 @@ class MonteCarloResult:
 
 
 def _lines_vectorised(x: np.ndarray, h: np.ndarray, lines: tuple[str, ...]) -> dict[str, np.ndarray]:
-    """Straightness per trial (rows of h) for each reference line."""
+    """Straightness per trial (rows of h) for each reference line.  Every row is computed on its own
+    (no matrix product, whose rounding may depend on how many rows it is given), so a trial's values
+    do not depend on the chunk it is evaluated in (nor on the memory order of ``h``: a row sum runs
+    pairwise along a contiguous row, in sequence along a strided one)."""
+    h = np.ascontiguousarray(h)
     out: dict[str, np.ndarray] = {}
     if "endpoint" in lines:
         b = (h[:, -1] - h[:, 0]) / (x[-1] - x[0])
@@ -196,7 +200,7 @@ def _lines_vectorised(x: np.ndarray, h: np.ndarray, lines: tuple[str, ...]) -> d
         out["endpoint"] = d.max(axis=1) - d.min(axis=1)
     if "least_squares" in lines:
         xm = x - x.mean()
-        b = (h @ xm) / (xm @ xm)
+        b = (h * xm).sum(axis=1) / (xm @ xm)
         d = h - b[:, None] * xm
         out["least_squares"] = d.max(axis=1) - d.min(axis=1)
     if "minimum_zone" in lines:
@@ -204,46 +208,81 @@ def _lines_vectorised(x: np.ndarray, h: np.ndarray, lines: tuple[str, ...]) -> d
     return out
 
 
+# One random stream per input, so that trial t draws the same numbers however the trials are
+# chunked: (offset: six numbers per trial, mirror x y z then sensor x y z).
+MC_STREAMS: tuple[str, ...] = ("sensor_noise", "sensor_resolution", "stry", "strz", "pitch", "yaw", "roll",
+                               "offset", "x")
+# Trials x points evaluated at once.  The exact decoupling holds a few dozen temporaries of this
+# size: 250 000 elements (2 MB each) keep the Monte Carlo's working set near 60 MB at any run size.
+MC_CHUNK_ELEMENTS = 250_000
+
+
+def mc_streams(seed: int) -> dict[str, np.random.Generator]:
+    """The independent random streams of the Monte Carlo (one per input, :data:`MC_STREAMS`) of ``seed``."""
+    children = np.random.SeedSequence(seed).spawn(len(MC_STREAMS))
+    return {name: np.random.default_rng(child) for name, child in zip(MC_STREAMS, children, strict=True)}
+
+
+def mc_trial_heights(ch: Channels, setup: Setup, method: str, inputs: UncertaintyInputs, groups: StationGroups,
+                     slope_um_per_mm: np.ndarray, streams: dict[str, np.random.Generator], m: int) -> np.ndarray:
+    """The station heights (um, shape (m, stations)) of the next ``m`` trials drawn from ``streams``."""
+    u, n = inputs, len(ch.x_mm)
+
+    def noisy(a: np.ndarray, stream: str, sigma: float, scale: float = 1.0) -> np.ndarray:
+        return a + streams[stream].normal(0.0, sigma, (m, n)) * scale if sigma else np.broadcast_to(a, (m, n))
+
+    sensor = noisy(ch.sensor_mm, "sensor_noise", u.sensor_noise_um, 1e-3)
+    if u.sensor_resolution_um:
+        sensor = sensor + streams["sensor_resolution"].uniform(-0.5, 0.5, (m, n)) * u.sensor_resolution_um * 1e-3
+    chp = Channels(x_mm=ch.x_mm, lin_um=ch.lin_um, stry_um=noisy(ch.stry_um, "stry", u.straightness_um),
+                   strz_um=noisy(ch.strz_um, "strz", u.straightness_um),
+                   pitch_urad=noisy(ch.pitch_urad, "pitch", u.angle_urad),
+                   yaw_urad=noisy(ch.yaw_urad, "yaw", u.angle_urad),
+                   roll_urad=noisy(ch.roll_urad, "roll", u.angle_urad), sensor_mm=sensor, first_step=ch.first_step)
+    off = streams["offset"].normal(0.0, u.offset_mm, (m, 6))
+    coords = [v + off[:, i:i + 1] for i, v in enumerate((*setup.mirror, *setup.sensor))]
+    sp = Setup(tuple(coords[:3]), tuple(coords[3:]), setup.beam, setup.sign, setup.datum_urad)  # type: ignore[arg-type]
+    _, h = DECOUPLERS[method](chp, sp)
+    dx = streams["x"].normal(0.0, u.x_um(method) * 1e-3, (m, n))
+    dx -= dx[:, :1]
+    return groups.average(h) + slope_um_per_mm * groups.average(dx)
+
+
 def monte_carlo(points: pd.DataFrame, geometry: BlockGeometry, method: str, inputs: UncertaintyInputs,
                 groups: StationGroups, x_out: np.ndarray, slope_um_per_mm: np.ndarray, *,
                 trials: int = 10_000, seed: int = 0,
                 lines: tuple[str, ...] = ("endpoint", "least_squares", "minimum_zone"),
-                chunk_elements: int = 2_000_000) -> MonteCarloResult:
-    """Seeded Monte Carlo propagation (GUM-S1) through the selected decoupling method."""
+                chunk_elements: int = MC_CHUNK_ELEMENTS) -> MonteCarloResult:
+    """Seeded Monte Carlo propagation (GUM-S1) through the selected decoupling method.
+
+    The trials are evaluated ``chunk_elements // points`` at a time (at least one): memory is
+    bounded whatever the run's size, and the result does not depend on the chunking to the last
+    digit (each input has its own stream, :func:`mc_streams`; each trial's straightness is computed
+    on its own; the per-station sums run over the trials in order).  Per-station standard deviation
+    from sums shifted by the first trial's heights (no cancellation: the shifted values are of the
+    order of the scatter): s^2 = (sum d^2 - (sum d)^2 / N) / (N - 1), d = h - h_first.
+    """
     if trials < 2:
         raise ValueError("Monte Carlo needs at least 2 trials")
-    rng = np.random.default_rng(seed)
+    streams = mc_streams(seed)
     ch = Channels.from_points(points)
-    n = len(points)
     setup = Setup.from_geometry(geometry)
-    decouple = DECOUPLERS[method]
-    u = inputs
-    heights = []
-    m_chunk = max(1, chunk_elements // max(n, 1))
+    m_chunk = max(1, chunk_elements // max(len(points), 1))
+    per_line = {name: np.empty(trials) for name in lines}
+    shift: np.ndarray | None = None
+    s1 = s2 = np.zeros(len(x_out))
     done = 0
     while done < trials:
         m = min(m_chunk, trials - done)
+        h = mc_trial_heights(ch, setup, method, inputs, groups, slope_um_per_mm, streams, m)
+        for name, values in _lines_vectorised(x_out, h, lines).items():
+            per_line[name][done:done + m] = values
+        if shift is None:
+            shift = h[0].copy()
+        for row in h:  # in trial order: the sums do not depend on where the chunks end
+            d = row - shift
+            s1 = s1 + d
+            s2 = s2 + d * d
         done += m
-
-        def noisy(a: np.ndarray, sigma: float, scale: float = 1.0, m: int = m) -> np.ndarray:
-            return a + rng.normal(0.0, sigma, (m, n)) * scale if sigma else np.broadcast_to(a, (m, n))
-
-        sensor = noisy(ch.sensor_mm, u.sensor_noise_um, 1e-3)
-        if u.sensor_resolution_um:
-            sensor = sensor + rng.uniform(-0.5, 0.5, (m, n)) * u.sensor_resolution_um * 1e-3
-        chp = Channels(x_mm=ch.x_mm, lin_um=ch.lin_um, stry_um=noisy(ch.stry_um, u.straightness_um),
-                       strz_um=noisy(ch.strz_um, u.straightness_um),
-                       pitch_urad=noisy(ch.pitch_urad, u.angle_urad), yaw_urad=noisy(ch.yaw_urad, u.angle_urad),
-                       roll_urad=noisy(ch.roll_urad, u.angle_urad), sensor_mm=sensor, first_step=ch.first_step)
-
-        def offset(v: float, m: int = m) -> np.ndarray:
-            return v + rng.normal(0.0, u.offset_mm, (m, 1))
-
-        sp = Setup(tuple(offset(v) for v in setup.mirror), tuple(offset(v) for v in setup.sensor),  # type: ignore[arg-type]
-                   setup.beam, setup.sign, setup.datum_urad)
-        _, h = decouple(chp, sp)
-        dx = rng.normal(0.0, u.x_um(method) * 1e-3, (m, n))
-        dx -= dx[:, :1]
-        heights.append(groups.average(h) + slope_um_per_mm * groups.average(dx))
-    h_all = np.concatenate(heights)
-    return MonteCarloResult(trials, seed, h_all.std(axis=0, ddof=1), _lines_vectorised(x_out, h_all, lines))
+    var = (s2 - s1 * s1 / trials) / (trials - 1)
+    return MonteCarloResult(trials, seed, np.sqrt(np.maximum(var, 0.0)), per_line)

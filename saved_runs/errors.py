@@ -34,3 +34,19 @@ def os_error_line(exc: OSError) -> str:
     if exc.errno == errno.EROFS:
         return f"{where}: {reason}; copy the run to a writable disk"
     return f"{where}: {reason}"
+
+
+class FileWriteError(UserError):
+    """A file could not be written (disk full, read-only, no permission): the message names the file.
+
+    ``path``: the file meant (not a temporary name); ``errno``: the system's error number."""
+
+    def __init__(self, path: object, exc: OSError) -> None:
+        import errno as errnos
+
+        self.path = path
+        self.errno = exc.errno
+        self.reason = exc.strerror or str(exc)
+        hint = (" (the disk is full: free some space on it)"
+                if exc.errno in (errnos.ENOSPC, errnos.EDQUOT) else "")
+        super().__init__(f"cannot write {path}: {self.reason}{hint}")

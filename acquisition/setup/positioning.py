@@ -10,7 +10,8 @@ from typing import Any
 from processing.air_index import DEFAULT_EQUATION
 from processing.environment import EnvironmentSettings
 from processing.iso230_2 import LONG_AXIS_MM
-from saved_runs.errors import SetupError
+from saved_runs import nc_text
+from saved_runs.errors import SetupError, UserError
 from saved_runs.evaluation.tolerance import positioning_tolerance
 from saved_runs.toml_file import TomlTable, naming_source, read_toml
 
@@ -203,6 +204,15 @@ class PositioningSetup:
                 "axis_type": self.axis_type, "setup": self.to_run_setup()}
 
 
+def _nc_checked(check: Any, value: Any, what: str) -> Any:
+    """``check(value, what)`` of saved_runs.nc_text, its refusal as a :class:`SetupError`: a string
+    that reaches the part program must be one the controller accepts."""
+    try:
+        return check(value, what)
+    except UserError as exc:
+        raise SetupError(str(exc)) from None
+
+
 def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> PositioningSetup:
     """Build and validate a :class:`PositioningSetup` from the TOML structure; every refusal names ``source``
     (the set-up file) first."""
@@ -220,7 +230,8 @@ def _positioning_setup(data: dict[str, Any], source: str) -> PositioningSetup:
     if axis_type not in AXIS_TYPES:
         raise SetupError(f"{source}: [axis] type must be linear or rotary, got {axis_type!r}")
     u = "deg" if axis_type == "rotary" else "mm"
-    name = ax.get("name", str, "C" if axis_type == "rotary" else "X")
+    name = _nc_checked(nc_text.axis_letter, ax.get("name", str, "C" if axis_type == "rotary" else "X"),
+                       f"{source}: [axis] name")
     seed = ax.get("seed", int, 0)
     explicit = ax.get(f"targets_{u}", list, None)
     allow_nonconforming = ax.get("allow_nonconforming_targets", bool, False)
@@ -288,6 +299,7 @@ def _positioning_setup(data: dict[str, Any], source: str) -> PositioningSetup:
     check_devices(devices, source, sensor=False)
     gc = top.table("gcode")
     dialect, program_number = gc.get("dialect", str, "fanuc"), gc.get("program_number", int, 1000)
+    program_number = _nc_checked(nc_text.program_number, program_number, f"{source}: [gcode] program_number")
     sim = top.table("simulation")
     s = SimulatedAxisSetup()
     simulation = SimulatedAxisSetup(**{k: sim.get(k, bool if isinstance(v, bool) else float, v)

@@ -64,12 +64,17 @@ class Scenario:
                      for e in self.effects)
 
 
-def _numbers(table: TomlTable, defaults: Mapping[str, float]) -> dict[str, float]:
+def _numbers(table: TomlTable, defaults: Mapping[str, float], *, non_negative: bool = False) -> dict[str, float]:
+    """The table's numbers (``defaults`` for those absent); ``non_negative``: each must be >= 0 (a
+    standard deviation)."""
     out = {}
     for key, default in defaults.items():
         v = table.get(key, float, default)
         if not math.isfinite(v):
             raise SetupError(f"{table.source}: [{table.name}] {key} must be a finite number, got {v}")
+        if non_negative and v < 0:
+            raise SetupError(f"{table.source}: [{table.name}] {key} is a standard deviation and must be >= 0, "
+                             f"got {v:g}")
         out[key] = v
     table.check_unknown()
     return out
@@ -93,7 +98,7 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "scenario") -> Sce
         setup = positioning_setup_from_dict(setup_source, source) if "axis" in data else None
         if setup is not None and setup.axis_type != "linear":
             raise SetupError(f"{source}: [axis] type: scenarios simulate linear axes")
-        noise = _numbers(top.table("noise"), POSITIONING_NOISE)
+        noise = _numbers(top.table("noise"), POSITIONING_NOISE, non_negative=True)
         conditions = _numbers(top.table("conditions"), CONDITIONS)
         motion = _numbers(top.table("motion"), MOTION)
         for key in ("pitch_wavelength_mm", "yaw_wavelength_mm"):
@@ -110,7 +115,7 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "scenario") -> Sce
     if "geometry" not in setup_source:
         setup_source["geometry"] = default_geometry()
     ssetup = straightness_setup_from_dict(setup_source, source) if "block" in data else None
-    noise = _numbers(top.table("noise"), STRAIGHTNESS_NOISE)
+    noise = _numbers(top.table("noise"), STRAIGHTNESS_NOISE, non_negative=True)
     timing = _numbers(top.table("timing"), TIMING)
     if not timing["seconds_per_station"] > 0:
         raise SetupError(f"{source}: [timing] seconds_per_station must be positive")

@@ -21,6 +21,7 @@ import pandas as pd
 from processing.compensation.residuals import compare_models, format_comparison, measured_points
 from processing.compensation.tables import ErrorTable, fit_curves, tabulate
 
+from .. import nc_text
 from ..errors import UserError
 from .axis import axis_data
 from .grid import table_grid
@@ -111,6 +112,21 @@ def _mode(o: ExportOptions) -> str:
     return o.mode or "bidirectional"
 
 
+def _checked_axis(o: ExportOptions, run_axis: str) -> str:
+    """The axis name the file gets, checked against what the controller accepts (saved_runs.nc_text):
+    ``--axis`` always, the run's own name where the format writes it (Fanuc, Siemens without
+    ``--siemens-axis``); ``--siemens-axis`` as a Sinumerik machine-axis identifier."""
+    if o.axis is not None:
+        nc_text.axis_letter(o.axis, "--axis")
+    axis = o.axis or run_axis
+    if o.fmt == "siemens" and o.siemens_axis is not None:
+        nc_text.siemens_axis(o.siemens_axis, "--siemens-axis")
+    elif o.fmt in ("fanuc", "siemens"):
+        axis = nc_text.axis_letter(axis, "--axis" if o.axis else "the run's axis name (run.json setup.axis_name; "
+                                   "give --axis LETTER)")
+    return axis
+
+
 def build_export(result: Any, options: ExportOptions, *, axis: str = "X",
                  deviations: pd.DataFrame | None = None) -> Export:
     """Build the controller file for ``options`` from an evaluation ``result``.  ``deviations``
@@ -122,7 +138,7 @@ def build_export(result: Any, options: ExportOptions, *, axis: str = "X",
     if o.model not in MODEL_NAMES:
         raise UserError(f"unknown model {o.model!r}; choose one of {', '.join(MODEL_NAMES)}")
     d = axis_data(result)
-    axis = o.axis or axis
+    axis = _checked_axis(o, axis)
     mode = _mode(o)
     model_options = {"tolerance": o.tolerance, "initial_maxima": o.initial_maxima, "degree": o.degree}
     grid, grid_notes = table_grid(d, o)

@@ -20,6 +20,8 @@ from processing.compensation.numbers import fixed
 from processing.compensation.siemens import siemens_applied_error, siemens_lec_text
 from processing.compensation.tables import ErrorTable
 
+from .. import nc_text
+
 if TYPE_CHECKING:
     from .axis import AxisData
     from .options import ExportOptions
@@ -78,9 +80,11 @@ def _siemens(d: AxisData, o: ExportOptions, table: ErrorTable, axis: str) -> Wri
     decimals = 6 if d.axis_type == "linear" else 8
     notes = [_backlash_note(table, d) + " (Siemens MD32450 BACKLASH; check its sign on the machine)"]
     text = siemens_lec_text(
-        table.position, values, axis=o.siemens_axis or f"{axis}1", encoder=o.siemens_encoder,
+        table.position, values, encoder=o.siemens_encoder,
+        axis=nc_text.siemens_axis(o.siemens_axis or f"{axis}1", "the Siemens axis name"),
         unit_scale=d.unit_scale, decimals=decimals, modulo=o.siemens_modulo,
-        max_points=o.siemens_max_points, note=f"guideway LEC {o.model} model, mean of both directions",
+        max_points=o.siemens_max_points,
+        note=nc_text.comment(f"guideway LEC {o.model} model, mean of both directions", "the table's note"),
     )
     removed = siemens_applied_error(values, unit_scale=d.unit_scale, decimals=decimals)
     applied = ErrorTable(table.position, removed, removed, "backlash", table.model, table.backlash)
@@ -115,4 +119,6 @@ def _fanuc(d: AxisData, o: ExportOptions, table: ErrorTable, axis: str) -> Writt
     offset = float(np.interp(ref, table.position, reference_curve))
     offset_note = (f"Fanuc corrections are relative to the reference position {ref:g} mm: the error there "
                    f"({offset:+.3f} um) stays in every residual (in max|r| and RMS, not in range, E or M)")
-    return Written(fanuc_text(pitch, axis=axis, note=note), notes, applied, offset_note)
+    text = fanuc_text(pitch, axis=nc_text.axis_letter(axis, "the axis name"),
+                      note=nc_text.comment(note, "the table's note"))
+    return Written(text, notes, applied, offset_note)

@@ -11,13 +11,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.axes import Axes  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
+from ..store.files import write_atomic  # noqa: E402
+
 
 def save_figure(fig: Figure, path: Path) -> None:
-    """Save ``fig`` to ``path`` through a temporary file, then close it."""
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    tmp.replace(path)
+    """Save ``fig`` to ``path`` as PNG atomically (saved_runs.store.files.write_atomic), then close it."""
+    try:
+        write_atomic(path, lambda f: fig.savefig(f, format="png"))
+    finally:
+        plt.close(fig)
 
 
 def legend_above_data(ax: Axes, *, ncol: int = 1) -> None:

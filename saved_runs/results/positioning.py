@@ -18,6 +18,7 @@ from matplotlib.figure import Figure  # noqa: E402
 
 from ..store.files import write_json_atomic, write_text_atomic  # noqa: E402
 from .figures import legend_above_data, save_figure  # noqa: E402
+from .result_set import write_result_set  # noqa: E402
 
 UNIT_LABELS = {"um": "µm", "arcsec": "arcsec"}  # the plots name units as the report's tables do
 
@@ -30,10 +31,12 @@ if TYPE_CHECKING:
 def write_positioning_results(results_dir: Path, result: Iso2302Result, deviations: pd.DataFrame,
                               summary: dict[str, Any]) -> Path:
     """Write the per-target table (positioning.csv, target in mm or deg, values in µm or
-    arcsec as the column names say), ``summary`` as summary.json and positioning.png; return the
-    directory."""
-    out = Path(results_dir)
-    out.mkdir(exist_ok=True)
+    arcsec as the column names say), ``summary`` as summary.json and positioning.png as one set (a
+    kill leaves the old set or the new one, .result_set); return the directory."""
+    return write_result_set(results_dir, lambda out: _write_files(out, result, deviations, summary))
+
+
+def _write_files(out: Path, result: Iso2302Result, deviations: pd.DataFrame, summary: dict[str, Any]) -> None:
     r = result
     table = r.per_target.rename(columns={
         "target": f"target_{r.target_unit}",
@@ -43,7 +46,6 @@ def write_positioning_results(results_dir: Path, result: Iso2302Result, deviatio
     write_text_atomic(out / "positioning.csv", table.to_csv(index=False, float_format="%.6f"))
     write_json_atomic(out / "summary.json", summary)
     plot_positioning(result, deviations, out / "positioning.png")
-    return out
 
 
 def plot_positioning(result: Iso2302Result, deviations: pd.DataFrame, path: Path) -> None:

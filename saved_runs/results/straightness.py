@@ -14,16 +14,20 @@ from matplotlib.figure import Figure  # noqa: E402
 from processing.straightness import StraightnessResult  # noqa: E402
 
 from ..store.files import write_json_atomic, write_text_atomic  # noqa: E402
-from .figures import legend_above_data, save_figure
+from .figures import legend_above_data, save_figure  # noqa: E402
+from .result_set import write_result_set  # noqa: E402
 
 LINE_LABELS = {"endpoint": "end-point line", "least_squares": "least-squares line",
                "minimum_zone": "minimum-zone line"}
 
 
 def write_straightness_results(results_dir: Path, result: StraightnessResult) -> Path:
-    """Write profile.csv, summary.json and profile.png into ``results_dir``; return it."""
-    out = Path(results_dir)
-    out.mkdir(exist_ok=True)
+    """Write profile.csv, summary.json and profile.png into ``results_dir`` as one set (a kill leaves
+    the old set or the new one, .result_set); return it."""
+    return write_result_set(results_dir, lambda out: _write_files(out, result))
+
+
+def _write_files(out: Path, result: StraightnessResult) -> None:
     prof = result.profile.copy()
     for name, fit in result.lines.items():
         prof[f"dev_{name}_um"] = fit.deviations_um
@@ -32,7 +36,6 @@ def write_straightness_results(results_dir: Path, result: StraightnessResult) ->
     write_text_atomic(out / "profile.csv", prof.to_csv(index=False, float_format="%.6f"))
     write_json_atomic(out / "summary.json", result.to_dict())
     plot_profile(result, out / "profile.png")
-    return out
 
 
 def plot_profile(result: StraightnessResult, path: Path) -> None:

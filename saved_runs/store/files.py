@@ -9,9 +9,19 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import secrets
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
+
+from ..errors import FileWriteError
+
+# The temporary names of this module: ".NAME.PID-HEX.tmp" (a file being written), ".NAME.PID-HEX.tmpdir"
+# (a set of files being written, saved_runs/results/result_set.py); older versions wrote ".NAME.HEX.tmp"
+# and ".NAME.tmp.png".  The pid lets the next writer tell a
+# leftover of a killed process from a file another process is writing right now.
+TEMP_NAME = re.compile(r"^\.(?P<name>.+?)\.(?:(?:(?P<pid>\d+)-)?[0-9a-f]{8}\.tmp(?:dir)?|tmp\.png)$")
 
 
 def fsync_dir(path: Path) -> None:
@@ -23,13 +33,13 @@ def fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
-def _create_temp(path: Path) -> tuple[int, str]:
+def create_temp(path: Path) -> tuple[int, str]:
     """A new temporary file next to ``path``, opened for writing, with the mode an ordinary
     ``open()`` gives (0666 less the user's umask): ``tempfile.mkstemp`` would make it 0600, and
     the rename would give results, reports and tables that mode."""
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
     for _ in range(100):
-        tmp = str(path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp")
+        tmp = str(path.parent / f".{path.name}.{os.getpid()}-{secrets.token_hex(4)}.tmp")
         try:
             return os.open(tmp, flags, 0o666), tmp
         except FileExistsError:
@@ -37,24 +47,85 @@ def _create_temp(path: Path) -> tuple[int, str]:
     raise FileExistsError(f"no free temporary file name next to {path}")  # pragma: no cover
 
 
-def write_text_atomic(path: Path | str, text: str) -> None:
-    """Replace ``path`` with ``text`` (UTF-8, ``\\n`` line ends): a temporary file in the same
-    directory, fsynced, renamed over ``path``, directory fsynced.  A reader sees the old or the
-    new file, never a half-written one."""
+def write_atomic(path: Path | str, write: Callable[[BinaryIO], None]) -> None:
+    """Replace ``path`` with what ``write`` writes to the binary file it is given: a temporary file in
+    the same directory, fsynced, renamed over ``path``, directory fsynced.  A reader sees the old or the
+    new file, never a half-written one; a failure (a full disk, a crash) leaves no temporary file and
+    raises :class:`FileWriteError` naming ``path``."""
     path = Path(path)
-    fd, tmp = _create_temp(path)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
+        fd, tmp = create_temp(path)
+    except OSError as exc:
+        raise FileWriteError(path, exc) from exc
+    try:
+        with os.fdopen(fd, "wb") as f:
+            write(f)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
-    except BaseException:
+        fsync_dir(path.parent)
+    except BaseException as exc:
         Path(tmp).unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise FileWriteError(path, exc) from exc
         raise
-    fsync_dir(path.parent)
+
+
+def write_text_atomic(path: Path | str, text: str) -> None:
+    """Replace ``path`` with ``text`` (UTF-8, ``\\n`` line ends) atomically (:func:`write_atomic`)."""
+    data = text.encode("utf-8")
+    write_atomic(path, lambda f: f.write(data))
 
 
 def write_json_atomic(path: Path | str, obj: Any) -> None:
-    """Replace ``path`` with ``obj`` as JSON (no NaN), atomically (:func:`write_text_atomic`)."""
-    write_text_atomic(path, json.dumps(obj, indent=2, allow_nan=False) + "\n")
+    """Replace ``path`` with ``obj`` as JSON (no NaN), atomically (:func:`write_atomic`).  Encoded
+    piece by piece into the file: the summary of a 100 000-station run is never held as one string."""
+
+    def write(f: BinaryIO) -> None:
+        pieces: list[str] = []
+        size = 0
+        for piece in json.JSONEncoder(indent=2, allow_nan=False).iterencode(obj):  # as json.dumps(indent=2)
+            pieces.append(piece)
+            size += len(piece)
+            if size >= 1 << 16:
+                f.write("".join(pieces).encode("utf-8"))
+                pieces, size = [], 0
+        pieces.append("\n")
+        f.write("".join(pieces).encode("utf-8"))
+
+    write_atomic(path, write)
+
+
+def temp_owner_alive(name: str) -> bool:
+    """Whether the temporary file or directory ``name`` (:data:`TEMP_NAME`) belongs to a process that still
+    runs on this machine (a name without a pid, from an older version, belongs to none)."""
+    m = TEMP_NAME.match(name)
+    if m is None or m.group("pid") is None:
+        return False
+    try:
+        os.kill(int(m.group("pid")), 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's live process
+        return True
+    return True
+
+
+def remove_stale_temps(directory: Path) -> list[str]:
+    """Remove the temporary files and directories in ``directory`` left by a killed writer (their
+    process is gone); return their names."""
+    import shutil
+
+    removed = []
+    try:
+        entries = list(os.scandir(directory))
+    except FileNotFoundError:
+        return removed
+    for e in entries:
+        if TEMP_NAME.match(e.name) and not temp_owner_alive(e.name):
+            if e.is_dir(follow_symlinks=False):
+                shutil.rmtree(e.path, ignore_errors=True)
+            else:
+                Path(e.path).unlink(missing_ok=True)
+            removed.append(e.name)
+    return removed

@@ -14,7 +14,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, TextIO
 
-from ..errors import RunFormatError
+from ..errors import FileWriteError, RunFormatError
 from .files import fsync_dir, write_json_atomic, write_text_atomic
 from .format import FORMAT, VERSION, format_cell, point_columns
 from .lock import run_files
@@ -174,8 +174,11 @@ class RunStore:
         os.fsync(self._csv.fileno())
 
     def _event(self, doc: dict[str, Any]) -> None:
-        self._write_row(doc["data"])
-        self._sync_csv()
+        try:
+            self._write_row(doc["data"])
+            self._sync_csv()
+        except OSError as exc:  # a full disk: the run fails naming the file (and can be resumed)
+            raise FileWriteError(self.run_dir / "points.csv", exc) from exc
         self.points_written += 1
 
     def record_many(self, rows: list[dict[str, Any]]) -> None:
@@ -195,17 +198,26 @@ class RunStore:
         self._csv.write(",".join(format_cell(data[c]) for c in self._columns) + "\n")
 
     def _stop(self, doc: dict[str, Any]) -> None:
-        if self._csv is not None:
-            self._sync_csv()
-            self._csv.close()
-            self._csv = None
-        self.meta.update(
-            status=STATUS_BY_EXIT.get(doc["exit_status"], "aborted"),
-            ended=utc_now_iso(),
-            end_reason=doc.get("reason", ""),
-            points=self.points_written,
-        )
-        self._write_meta()
+        try:
+            if self._csv is not None:
+                csv, self._csv = self._csv, None
+                try:
+                    csv.flush()
+                    os.fsync(csv.fileno())
+                finally:
+                    csv.close()
+            self.meta.update(
+                status=STATUS_BY_EXIT.get(doc["exit_status"], "aborted"),
+                ended=utc_now_iso(),
+                end_reason=doc.get("reason", ""),
+                points=self.points_written,
+            )
+            self._write_meta()
+        except (OSError, FileWriteError):
+            # a run that failed (a full disk: that is its reason) stays "in-progress" on disk when its end
+            # cannot be written either; --resume continues it all the same
+            if doc["exit_status"] != "fail":
+                raise
 
 
 def _complete_lines(path: Path) -> list[str]:

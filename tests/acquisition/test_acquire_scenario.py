@@ -132,3 +132,28 @@ def test_the_simulation_table_of_a_straightness_setup_is_checked() -> None:
         straightness_setup_from_dict({**data, "simulation": {"scenaro": "x.toml"}}, "setup")
     assert straightness_setup_from_dict({**data, "simulation": {"scenario": "/abs/x.toml"}}, "setup").scenario \
         == "/abs/x.toml"
+
+
+def test_a_negative_noise_in_a_scenario_is_a_one_line_error(tmp_path: Path) -> None:
+    """A standard deviation below 0 (numpy's ``scale < 0`` traceback before)."""
+    for kind, key in (("straightness", "sensor_um"), ("positioning", "reading_um")):
+        text = (ROOT / "docs" / f"scenario-{kind}.toml").read_text()
+        lines = [f"{key} = -0.05" if ln.split("=")[0].strip() == key else ln for ln in text.splitlines()]
+        assert lines != text.splitlines()
+        scenario = tmp_path / f"{kind}.toml"
+        scenario.write_text("\n".join(lines) + "\n")
+        one_line_error(guideway("simulate", scenario, "--out", tmp_path / f"run-{kind}"),
+                       str(scenario), f"[noise] {key}", ">= 0", "-0.05")
+        assert not (tmp_path / f"run-{kind}").exists()
+
+
+def test_the_scenario_path_is_relative_to_the_setup_file_not_the_working_directory(
+        tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001
+    from acquisition.setup.positioning import load_positioning_setup
+
+    (tmp_path / "cell").mkdir()
+    (tmp_path / "cell" / "setup.toml").write_text(POSITIONING_SETUP)
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    setup = load_positioning_setup("../cell/setup.toml")
+    assert setup.scenario == str((tmp_path / "cell" / "scenario.toml").resolve())

@@ -16,6 +16,7 @@ from pathlib import Path
 def run(args: argparse.Namespace) -> int:
     from acquisition.gcode import part_program
     from acquisition.setup.positioning import load_positioning_setup
+    from saved_runs.store.files import write_text_atomic
 
     setup = load_positioning_setup(args.setup)
     if args.dialect:
@@ -24,7 +25,9 @@ def run(args: argparse.Namespace) -> int:
     if args.out is None:
         sys.stdout.write(text)
     else:
-        args.out.write_text(text, encoding="ascii")
+        # as every file the tool writes: a temporary file renamed over --out (a symlink there is
+        # replaced, not written through; a reader never sees half a program)
+        write_text_atomic(args.out, text)
         print(f"{setup.dialect} program, {len(setup.measured_stops())} measured stops: {args.out}", file=sys.stderr)
     return 0
 
