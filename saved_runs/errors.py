@@ -24,16 +24,23 @@ class SetupError(UserError):
 EXPECTED_ERRORS: tuple[type[Exception], ...] = (UserError, DriverError)
 
 
+def what_to_do(error_number: int | None) -> str:
+    """What the user can do about a file the system would not write, by the error number ("" when
+    the reason says it all)."""
+    if error_number in (errno.EACCES, errno.EPERM):
+        return "; you may not write there (a read-only run or folder): copy the run elsewhere"
+    if error_number == errno.EROFS:
+        return "; copy the run to a writable disk"
+    if error_number in (errno.ENOSPC, errno.EDQUOT):
+        return " (the disk is full: free some space on it)"
+    return ""
+
+
 def os_error_line(exc: OSError) -> str:
     """One line for a file that could not be written or read: the file and the reason in words (not
-    ``[Errno 13] Permission denied: '...'``), and what to do for a permission problem."""
+    ``[Errno 13] Permission denied: '...'``), and what to do about it."""
     where = exc.filename if exc.filename is not None else "a file"
-    reason = (exc.strerror or str(exc)).lower()
-    if exc.errno in (errno.EACCES, errno.EPERM):
-        return f"{where}: {reason}; you may not write there (a read-only run or folder): copy the run elsewhere"
-    if exc.errno == errno.EROFS:
-        return f"{where}: {reason}; copy the run to a writable disk"
-    return f"{where}: {reason}"
+    return f"{where}: {exc.strerror or exc}{what_to_do(exc.errno)}"
 
 
 class FileWriteError(UserError):
@@ -42,11 +49,7 @@ class FileWriteError(UserError):
     ``path``: the file meant (not a temporary name); ``errno``: the system's error number."""
 
     def __init__(self, path: object, exc: OSError) -> None:
-        import errno as errnos
-
         self.path = path
         self.errno = exc.errno
         self.reason = exc.strerror or str(exc)
-        hint = (" (the disk is full: free some space on it)"
-                if exc.errno in (errnos.ENOSPC, errnos.EDQUOT) else "")
-        super().__init__(f"cannot write {path}: {self.reason}{hint}")
+        super().__init__(f"cannot write {path}: {self.reason}{what_to_do(exc.errno)}")

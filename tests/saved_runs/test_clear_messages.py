@@ -79,6 +79,6 @@ def test_a_read_only_run_directory_is_one_clear_line(tmp_path: Path, monkeypatch
         return real_open(path, flags, *args)
 
     monkeypatch.setattr(files.os, "open", read_only)
-    line = one_line_error(guideway("process", run, "--mc-trials", "0"), str(run), "permission denied",
+    line = one_line_error(guideway("process", run, "--mc-trials", "0"), str(run), "Permission denied",
                           "copy the run elsewhere")
     assert "Errno" not in line
