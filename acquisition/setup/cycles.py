@@ -17,14 +17,14 @@ genuine one from the stated direction (``target_index`` 0 = not measured).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import overload
 
 import numpy as np
 
 from processing.iso230_2 import check_target_count, required_targets
 from saved_runs.errors import SetupError
+
+from .computed import Computed
 
 CYCLES = ("linear", "step")
 END_JITTER = 0.02  # largest offset of the first / last target, as a fraction of the interval
@@ -117,7 +117,7 @@ def check_targets(targets: tuple[float, ...], axis_type: str, span: float | None
         raise SetupError(f"[axis] targets: {note}; give more targets or set allow_nonconforming_targets = true")
 
 
-class Cycle(Sequence[Stop]):
+class Cycle(Computed[Stop]):
     """The stops of a test cycle, each computed from its index (never a list: the sizes are checked
     against acquisition/setup/maxima.py, and a plan reads one stop at a time).
 
@@ -126,6 +126,8 @@ class Cycle(Sequence[Stop]):
     target all up and down approaches before moving on.  ``measured``: only the stops where a
     point is captured (``target_index`` > 0), in the same order.
     """
+
+    what = "stop"
 
     def __init__(self, kind: str, targets: tuple[float, ...], runs: int, overrun: float, *,
                  measured: bool = False) -> None:
@@ -141,19 +143,7 @@ class Cycle(Sequence[Stop]):
     def __len__(self) -> int:
         return self._block * self._blocks
 
-    @overload
-    def __getitem__(self, i: int) -> Stop: ...
-    @overload
-    def __getitem__(self, i: slice) -> list[Stop]: ...
-
-    def __getitem__(self, i: int | slice) -> Stop | list[Stop]:
-        if isinstance(i, slice):
-            return [self[j] for j in range(*i.indices(len(self)))]
-        n = len(self)
-        if i < 0:
-            i += n
-        if not 0 <= i < n:
-            raise IndexError(f"stop {i} of {n}")
+    def at(self, i: int) -> Stop:
         block, r = divmod(i, self._block)
         t, o = self.targets, self.overrun
         if self.kind == "linear":
@@ -173,11 +163,6 @@ class Cycle(Sequence[Stop]):
             return Stop(p, k, j + 1, -1 if up else +1)
         j, q = divmod(r, 4)
         return (Stop(p - o, 0, j + 1, +1), Stop(p, k, j + 1, +1), Stop(p + o, 0, j + 1, -1), Stop(p, k, j + 1, -1))[q]
-
-    def __eq__(self, other: object) -> bool:
-        return list(self) == list(other) if isinstance(other, Sequence) else NotImplemented
-
-    __hash__ = None  # type: ignore[assignment]
 
 
 def linear_cycle(targets: tuple[float, ...], runs: int, overrun: float) -> Cycle:

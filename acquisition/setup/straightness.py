@@ -8,10 +8,9 @@ the table and the key.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
-from typing import Any, overload
+from typing import Any
 
 from processing.geometry import BlockGeometry, DatumAngles
 from saved_runs.errors import SetupError
@@ -19,6 +18,7 @@ from saved_runs.evaluation.limits import ValidationSetup
 from saved_runs.evaluation.tolerance import straightness_tolerance
 from saved_runs.toml_file import TomlTable, naming_source, read_toml
 
+from .computed import Computed
 from .maxima import check_size
 from .shared_tables import DeviceSetup, catalog_table, check_devices, controller_timing_keys, scenario_path
 
@@ -72,9 +72,11 @@ class HandsFreeSetup:
                              f"({self.still_s:g} s): stillness needs at least three readings")
 
 
-class Steps(Sequence[tuple[int, int]]):
+class Steps(Computed[tuple[int, int]]):
     """The (pass, station) steps of a run, each computed from its index: forward 0..n-1, then with
     a return pass n-1..0.  Holds two numbers whatever the station count."""
+
+    what = "step"
 
     def __init__(self, stations: int, return_pass: bool) -> None:
         self.stations, self.return_pass = stations, return_pass
@@ -82,19 +84,7 @@ class Steps(Sequence[tuple[int, int]]):
     def __len__(self) -> int:
         return self.stations * (2 if self.return_pass else 1)
 
-    @overload
-    def __getitem__(self, i: int) -> tuple[int, int]: ...
-    @overload
-    def __getitem__(self, i: slice) -> list[tuple[int, int]]: ...
-
-    def __getitem__(self, i: int | slice) -> tuple[int, int] | list[tuple[int, int]]:
-        if isinstance(i, slice):
-            return [self[j] for j in range(*i.indices(len(self)))]
-        n = len(self)
-        if i < 0:
-            i += n
-        if not 0 <= i < n:
-            raise IndexError(f"step {i} of {n}")
+    def at(self, i: int) -> tuple[int, int]:
         return (0, i) if i < self.stations else (1, 2 * self.stations - 1 - i)
 
     def index(self, step: Any, start: int = 0, stop: int | None = None) -> int:
@@ -113,11 +103,6 @@ class Steps(Sequence[tuple[int, int]]):
         except (ValueError, TypeError):
             return False
         return True
-
-    def __eq__(self, other: object) -> bool:
-        return list(self) == list(other) if isinstance(other, Sequence) else NotImplemented
-
-    __hash__ = None  # type: ignore[assignment]
 
 
 @dataclass(frozen=True)

@@ -9,11 +9,9 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from saved_runs.errors import UserError
 from saved_runs.report.build import tool_version
 from saved_runs.report.common import UNIT_LABELS, conventions_section
-from saved_runs.report.html import HtmlPage, figure_png
-from saved_runs.store.files import write_text_atomic
+from saved_runs.report.html import HtmlPage, figure_png, write_page
 
 from .positioning import PositioningComparison
 
@@ -144,13 +142,4 @@ def stations_section(page: HtmlPage, d: Any) -> None:
 
 def write_comparison_report(c: Comparison, out: Path | str, *, command: str = "") -> Path:
     """Write the HTML report of ``c`` to ``out`` (atomically); return the path."""
-    path = Path(out)
-    if path.is_dir():
-        raise UserError(f"--report {path} is a directory; give a file name, e.g. {path / 'compare.html'}")
-    html = render_comparison(c, command=command)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(path, html)
-    except OSError as exc:
-        raise UserError(f"cannot write the report to {path}: {exc.strerror or exc}") from None
-    return path
+    return write_page(out, render_comparison(c, command=command), option="--report", example="compare.html")

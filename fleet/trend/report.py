@@ -5,8 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from saved_runs.report.html import HtmlPage, figure_png
-from saved_runs.store.files import write_text_atomic
+from saved_runs.report.html import HtmlPage, figure_png, write_page
 
 from .fit import DAYS_PER_YEAR, STEP_K, parse_date
 from .of_catalog import AxisTrend
@@ -71,6 +70,4 @@ def write_trend_report(at: AxisTrend, out: Path | str) -> Path:
                 for p in t.points], text_columns=(0, 4, 5))
     page.paragraph(f"A step is a change between consecutive runs larger than {STEP_K:g} times their combined "
                    "standard uncertainty √(u₁² + u₂²): a crash, a repair, a new compensation.", cls="note")
-    out = Path(out)
-    write_text_atomic(out, page.render())
-    return out
+    return write_page(out, page.render(), option="--report", example="trend.html")

@@ -17,10 +17,8 @@ from matplotlib.figure import Figure  # noqa: E402
 from processing.diagnosis.observations import Observations  # noqa: E402
 from processing.diagnosis.select import CandidateTest, ChannelDiagnosis  # noqa: E402
 
-from ..errors import UserError  # noqa: E402
 from ..report.build import tool_version  # noqa: E402
-from ..report.html import HtmlPage, figure_png  # noqa: E402
-from ..store.files import write_text_atomic  # noqa: E402
+from ..report.html import HtmlPage, figure_png, write_page  # noqa: E402
 from .diagnose import Diagnosis, format_params  # noqa: E402
 from .remains import not_named_because, remains  # noqa: E402
 
@@ -177,15 +175,7 @@ def render_diagnosis(d: Diagnosis) -> str:
 
 
 def write_diagnosis_report(d: Diagnosis, path: Path | str) -> Path:
-    path = Path(path)
-    if path.is_dir():
-        raise UserError(f"--report {path} is a directory; give a file name, e.g. {path / 'diagnosis.html'}")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(path, render_diagnosis(d))
-    except OSError as exc:
-        raise UserError(f"cannot write the report to {path}: {exc.strerror or exc}") from None
-    return path
+    return write_page(path, render_diagnosis(d), option="--report", example="diagnosis.html")
 
 
 def _verdict(ch: ChannelDiagnosis, step: Any) -> str:

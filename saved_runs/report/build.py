@@ -12,9 +12,8 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
-from ..errors import RunFormatError, UserError
+from ..errors import RunFormatError
 from ..evaluation.evaluate import evaluate_run
-from ..store.files import write_text_atomic
 from ..store.reader import LoadedRun, load_run
 from .common import (
     conventions_section,
@@ -25,7 +24,7 @@ from .common import (
     simulated_banner,
     status_section,
 )
-from .html import HtmlPage
+from .html import HtmlPage, write_page
 
 
 def tool_version() -> str:
@@ -105,11 +104,4 @@ def build_report(run_dir: Path | str, *, out: Path | str | None = None, **option
     evaluation, why = evaluate_for_report(run, options)
     html = render_report(run, evaluation, not_evaluated=why, command=report_command(run_dir, out, options))
     path = Path(out) if out is not None else run.path / "results" / "report.html"
-    if path.is_dir():
-        raise UserError(f"--out {path} is a directory; give a file name, e.g. {path / 'report.html'}")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(path, html)
-    except OSError as exc:
-        raise UserError(f"cannot write the report to {path}: {exc.strerror or exc}") from None
-    return path
+    return write_page(path, html, option="--out", example="report.html")

@@ -11,7 +11,11 @@ import html
 import io
 import math
 from collections.abc import Iterable, Sequence
+from pathlib import Path
 from typing import Any
+
+from ..errors import UserError
+from ..store.files import write_text_atomic
 
 CSS = """
 body { font-family: "DejaVu Sans", Arial, "Noto Sans CJK SC", "Microsoft YaHei", "PingFang SC", "WenQuanYi Zen Hei",
@@ -129,3 +133,19 @@ class HtmlPage:
             f"<title>{esc(self.title)}</title><style>{CSS}</style></head>\n"
             f"<body><h1>{esc(self.title)}</h1>\n{body}\n</body></html>\n"
         )
+
+
+def write_page(path: Path | str, text: str, *, option: str, example: str) -> Path:
+    """Write a rendered report ``text`` to ``path`` atomically (its folder created); return the path.
+
+    ``option`` (``--out``, ``--report``) and ``example`` (a file name) word the one-line refusal of a
+    directory; a file that cannot be written is one line naming it."""
+    path = Path(path)
+    if path.is_dir():
+        raise UserError(f"{option} {path} is a directory; give a file name, e.g. {path / example}")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(path, text)
+    except OSError as exc:
+        raise UserError(f"cannot write the report to {path}: {exc.strerror or exc}") from None
+    return path
