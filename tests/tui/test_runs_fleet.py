@@ -38,7 +38,7 @@ def copy_run_meta(run: Path, **meta: Any) -> None:
 
 def drive(runs_dir: Path, keys: tuple[str, ...], catalog_url: str | None = None) -> list[Any]:
     """Press ``keys`` on the runs browser; return what the app shows after each key: (screen, shown
-    runs' names, footer keys offered)."""
+    runs' names, footer keys offered, the line under the table)."""
     seen: list[Any] = []
 
     async def main() -> None:
@@ -54,7 +54,8 @@ def drive(runs_dir: Path, keys: tuple[str, ...], catalog_url: str | None = None)
                 runs = [r.path.name for r in screen.runs] if isinstance(screen, RunsScreen) else []
                 offered = ({k for k, b in app.active_bindings.items() if b.enabled} if isinstance(screen, RunsScreen)
                            else set())
-                seen.append((screen, runs, offered))
+                detail = str(screen.query_one("#run-detail").render()) if isinstance(screen, RunsScreen) else ""
+                seen.append((screen, runs, offered, detail))
 
     asyncio.run(main())
     return seen
@@ -90,6 +91,7 @@ def test_the_catalogue_is_listed_filtered_and_trended(tmp_path: Path) -> None:
     seen = drive(elsewhere, ("m", "m", "t"), catalog_url=url)
     listed, lathe, mill, trend = seen
     assert listed[1] == ["l1", "x2", "x1"]  # newest first
+    assert "complete when catalogued, at " + str(folder / "l1") in listed[3]  # not "0 points on disk"
     assert {"t", "m", "a", "l"} <= listed[2]
     assert lathe[1] == ["l1"] and mill[1] == ["x2", "x1"]  # machines in sorted order: lathe, then mill
     screen = trend[0]
@@ -101,5 +103,5 @@ def test_l_switches_to_the_folder_and_an_unreadable_catalogue_falls_back_to_it(t
     positioning_runs(tmp_path, {"here": "m1"})
     url = f"sqlite:///{tmp_path / 'nowhere' / 'catalog.sqlite'}"  # a folder that does not exist
     seen = drive(tmp_path, (), catalog_url=url)
-    screen, runs, offered = seen[-1]
+    screen, runs, offered, _ = seen[-1]
     assert runs == ["here"] and screen.catalog_problem and "t" not in offered

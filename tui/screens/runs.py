@@ -229,6 +229,9 @@ class RunsScreen(Screen):
             text = ""
         elif r.problem:
             text = f"{escape(r.path.name)}: [b]{DAMAGED}[/b]: {escape(r.problem)}"
+        elif self.from_catalog:  # the catalogue's entry: where the run is, not what is on disk now
+            text = f"{escape(r.path.name)}: {escape(r.status)} when catalogued, at {escape(str(r.path))}; " \
+                   "Enter opens its results, t its axis' trend"
         else:
             planned = f" of {r.planned} planned" if r.planned else ""
             what = "c continues it" if r.resumable else "Enter opens its results"
