@@ -19,6 +19,7 @@ import hashlib
 import json
 import math
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -171,6 +172,19 @@ def evaluated_summary(run_dir: Path) -> tuple[dict[str, Any] | None, str]:
         return None, f"not evaluated: {exc.__class__.__name__}: {exc}"
 
 
+def utc_created(text: str) -> str:
+    """run.json ``created`` as the catalogue stores it: UTC, ``YYYY-MM-DDTHH:MM:SSZ`` (a time with another
+    offset is converted, one without is UTC), so that the text sorts and compares as time does (``list``
+    newest first, ``--since``, the trend's order); text that is not an ISO 8601 time is kept as it is."""
+    try:
+        when = datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
+    except ValueError:
+        return text
+    if when.tzinfo is not None:
+        when = when.astimezone(UTC)
+    return when.strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
 def make_entry(files: RunFiles) -> Entry:
     """The catalogue entry of a run read by :func:`read_run_files` (evaluating it if its results are missing
     or stale)."""
@@ -180,6 +194,6 @@ def make_entry(files: RunFiles) -> Entry:
     verdict = (summary or {}).get("verdict")
     axis = meta.get("axis") or (meta.get("setup") or {}).get("axis_name") or ""
     return Entry(uid=files.uid, path=str(files.path), machine=str(meta.get("machine") or ""), axis=str(axis),
-                 kind=str(meta.get("kind") or ""), created=str(meta.get("created") or ""),
+                 kind=str(meta.get("kind") or ""), created=utc_created(str(meta.get("created") or "")),
                  status=str(meta.get("status") or ""), content_hash=files.content_hash, values=values,
                  verdict=verdict.get("result") if isinstance(verdict, dict) else None, note=note)

@@ -173,3 +173,15 @@ def test_values_come_from_the_evaluation_of_process_when_results_are_missing_or_
     assert guideway("catalog", "add", second, "--catalog", url).returncode == 0
     entry = next(e for e in listed(url) if e["uid"] == "second-run")
     assert entry["values"]["E"]["value_um"] == iso["E"]
+
+
+def test_created_with_an_offset_is_stored_in_utc_so_since_and_order_follow_time(catalog_url: str,
+                                                                                tmp_path: Path) -> None:
+    # 10:00 at +02:00 is 08:00 UTC: before 09:00 UTC, though its text sorts after "…T09:00:00Z"
+    write_run(tmp_path, "east", created="2026-06-10T10:00:00+02:00", summary=straightness_summary(5.0, 0.2))
+    write_run(tmp_path, "utc", created="2026-06-10T09:00:00Z", summary=straightness_summary(5.0, 0.2))
+    assert guideway("catalog", "add", "--scan", tmp_path, "--catalog", catalog_url).returncode == 0
+    runs = listed(catalog_url)
+    assert [Path(r["path"]).name for r in runs] == ["utc", "east"]  # newest first
+    assert runs[1]["created"] == "2026-06-10T08:00:00Z"
+    assert [Path(r["path"]).name for r in listed(catalog_url, "--since", "2026-06-10T08:30:00Z")] == ["utc"]
