@@ -11,7 +11,7 @@ from fleet.catalog.database import Catalog
 from fleet.catalog.runs import list_entries
 from saved_runs.errors import UserError
 
-from .fit import STEP_K, Trend, TrendPoint, fit_trend
+from .fit import STEP_K, Trend, TrendPoint, fit_trend, parse_date
 
 
 @dataclass(frozen=True)
@@ -75,6 +75,12 @@ def axis_trend(cat: Catalog, machine: str, axis: str, value: str, limit_um: floa
         v = e.values.get(value)
         if not v:
             continue
+        try:
+            parse_date(e.created)
+        except ValueError:  # the trend places each run in time: a run without a readable time has no place
+            raise UserError(f"run {e.uid} ({e.path}) has created {e.created!r}, not an ISO 8601 time; correct "
+                            "created in its run.json and add it again (guideway catalog add), or remove it from the "
+                            "catalogue (guideway catalog remove)") from None
         unit = "arcsec" if "value_arcsec" in v else "um"
         points.append(TrendPoint(e.uid, e.created, float(v[f"value_{unit}"]), v.get(f"u_{unit}"), e.path))
         if v.get(f"limit_{unit}") is not None:

@@ -156,3 +156,13 @@ def test_trend_bad_input(catalog_url: str, tmp_path: Path) -> None:
                    "no run", "A, E")
     one_line_error(guideway("trend", "--machine", "mill-1", "--axis", "X", "--value", "E", "--limit", "-1",
                             "--catalog", catalog_url), "--limit")
+
+
+def test_trend_of_a_run_whose_created_is_not_a_time_is_one_line(tmp_path: Path) -> None:
+    url = f"sqlite:///{tmp_path / 'catalog.sqlite'}"
+    runs = tmp_path / "runs"
+    write_run(runs, "good", created="2025-01-01T00:00:00Z", summary=straightness_summary(5.0, 0.2))
+    write_run(runs, "bad", created="26/11/2026", summary=straightness_summary(5.5, 0.2))
+    assert guideway("catalog", "add", "--scan", runs, "--catalog", url).returncode == 0
+    one_line_error(guideway("trend", "--machine", "mill-1", "--axis", "X", "--value", "minimum_zone",
+                            "--catalog", url), "26/11/2026", "not an ISO 8601 time")
