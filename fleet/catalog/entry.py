@@ -192,8 +192,12 @@ def make_entry(files: RunFiles) -> Entry:
     summary, note = evaluated_summary(files.path)
     values = headline_values(summary, meta) if summary is not None else {}
     verdict = (summary or {}).get("verdict")
+    return Entry(uid=files.uid, path=str(files.path), **identity(meta), content_hash=files.content_hash,
+                 values=values, verdict=verdict.get("result") if isinstance(verdict, dict) else None, note=note)
+
+
+def identity(meta: dict[str, Any]) -> dict[str, str]:
+    """What an entry holds of run.json besides its uid: machine, axis, kind, created (UTC) and status."""
     axis = meta.get("axis") or (meta.get("setup") or {}).get("axis_name") or ""
-    return Entry(uid=files.uid, path=str(files.path), machine=str(meta.get("machine") or ""), axis=str(axis),
-                 kind=str(meta.get("kind") or ""), created=utc_created(str(meta.get("created") or "")),
-                 status=str(meta.get("status") or ""), content_hash=files.content_hash, values=values,
-                 verdict=verdict.get("result") if isinstance(verdict, dict) else None, note=note)
+    return {"machine": str(meta.get("machine") or ""), "axis": str(axis), "kind": str(meta.get("kind") or ""),
+            "created": utc_created(str(meta.get("created") or "")), "status": str(meta.get("status") or "")}

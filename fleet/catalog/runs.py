@@ -20,7 +20,7 @@ import sqlalchemy as sa
 from saved_runs.errors import UserError
 
 from .database import Catalog, runs_table
-from .entry import Entry, RunFiles, RunUnreadable, make_entry, read_run_files
+from .entry import Entry, RunFiles, RunUnreadable, identity, make_entry, read_run_files
 
 BATCH = 200  # rows written per transaction while scanning
 
@@ -111,13 +111,25 @@ def _still_there(path: str, uid: str) -> bool:
         return False
 
 
+def _check_lengths(f: RunFiles) -> None:
+    """Refuse a run whose uid, machine, axis, ... is longer than its column: PostgreSQL would refuse the
+    whole batch of rows with it ("value too long"), SQLite would keep it; refused here, on both alike."""
+    for name, text in {"uid": f.uid, **identity(f.meta)}.items():
+        limit = runs_table.c[name].type.length
+        if len(text) > limit:
+            raise RunUnreadable(f"{f.path}: run.json {name} is {len(text)} characters long; the catalogue holds "
+                                f"at most {limit}: shorten it in run.json and add the run again")
+
+
 def add_runs(cat: Catalog, run_dirs: Iterable[Path | str]) -> Iterator[AddOutcome]:
     """Add each run directory to the catalogue, yielding what happened to each (the unreadable ones first,
     then the others in the order given): an unreadable directory is reported and the others are added."""
     read: list[RunFiles] = []
     for d in run_dirs:
         try:
-            read.append(read_run_files(d))
+            files = read_run_files(d)
+            _check_lengths(files)
+            read.append(files)
         except RunUnreadable as exc:
             yield AddOutcome(str(d), "unreadable", f"unreadable: {exc}")
     known = _known(cat, {f.uid for f in read})

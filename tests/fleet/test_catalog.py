@@ -185,3 +185,13 @@ def test_created_with_an_offset_is_stored_in_utc_so_since_and_order_follow_time(
     assert [Path(r["path"]).name for r in runs] == ["utc", "east"]  # newest first
     assert runs[1]["created"] == "2026-06-10T08:00:00Z"
     assert [Path(r["path"]).name for r in listed(catalog_url, "--since", "2026-06-10T08:30:00Z")] == ["utc"]
+
+
+def test_a_run_too_long_for_a_column_is_refused_alike_and_the_others_added(catalog_url: str, tmp_path: Path) -> None:
+    # machine is varchar(255) (docs/fleet.md): PostgreSQL refused the whole batch, SQLite stored it
+    write_run(tmp_path, "ok", summary=straightness_summary(5.0, 0.2))
+    write_run(tmp_path, "long", machine="m" * 256, summary=straightness_summary(5.0, 0.2))
+    res = guideway("catalog", "add", "--scan", tmp_path, "--catalog", catalog_url)
+    one_line_error(res, "1 run directory could not be read")
+    assert "machine is 256 characters long" in res.stderr and "at most 255" in res.stderr
+    assert [Path(r["path"]).name for r in listed(catalog_url)] == ["ok"]
