@@ -105,3 +105,13 @@ def test_l_switches_to_the_folder_and_an_unreadable_catalogue_falls_back_to_it(t
     seen = drive(tmp_path, (), catalog_url=url)
     screen, runs, offered, _ = seen[-1]
     assert runs == ["here"] and screen.catalog_problem and "t" not in offered
+
+
+def test_the_older_is_a_by_time_when_created_has_an_offset(tmp_path: Path) -> None:
+    runs = positioning_runs(tmp_path, {"before": "m1", "after": "m1"})
+    # 10:00 at +02:00 is 08:00 UTC, an hour before 09:00Z, though its text sorts after it
+    copy_run_meta(runs["before"], created="2026-03-01T10:00:00+02:00")
+    copy_run_meta(runs["after"], created="2026-03-01T09:00:00Z")
+    screen = drive(tmp_path, ("space", "down", "space", "x"))[-1][0]
+    assert isinstance(screen, CompareScreen)
+    assert (screen.run_a, screen.run_b) == (runs["before"], runs["after"])

@@ -190,8 +190,18 @@ class RunsScreen(Screen):
             return
         from .compare import CompareScreen
 
+        from fleet.trend.fit import parse_date
+
+        def when(path: Path) -> tuple[int, object]:
+            """By time, not by text: 10:00+02:00 is before 09:00Z (a created that is no time sorts last)."""
+            text = created.get(path, "")
+            try:
+                return 0, parse_date(text)
+            except ValueError:
+                return 1, text
+
         created = {r.path: r.created for r in self.runs}
-        a, b = sorted(self.marked, key=lambda p: created.get(p, ""))
+        a, b = sorted(self.marked, key=when)
         self.app.push_screen(CompareScreen(a, b))
 
     def action_trend(self) -> None:
