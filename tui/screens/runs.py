@@ -188,9 +188,9 @@ class RunsScreen(Screen):
         if len(self.marked) != 2:
             self.notify("mark two runs with Space first", severity="warning")
             return
-        from .compare import CompareScreen
-
         from fleet.trend.fit import parse_date
+
+        from .compare import CompareScreen
 
         def when(path: Path) -> tuple[int, object]:
             """By time, not by text: 10:00+02:00 is before 09:00Z (a created that is no time sorts last)."""
