@@ -123,7 +123,9 @@ def _check_lengths(f: RunFiles) -> None:
 
 def add_runs(cat: Catalog, run_dirs: Iterable[Path | str]) -> Iterator[AddOutcome]:
     """Add each run directory to the catalogue, yielding what happened to each (the unreadable ones first,
-    then the others in the order given): an unreadable directory is reported and the others are added."""
+    then the others): an unreadable directory is reported and the others are added.  An ``added``,
+    ``updated`` or ``moved`` outcome is yielded once its row is written, so that a database failing half
+    way has not been told as having added what it has not."""
     read: list[RunFiles] = []
     for d in run_dirs:
         try:
@@ -134,7 +136,9 @@ def add_runs(cat: Catalog, run_dirs: Iterable[Path | str]) -> Iterator[AddOutcom
             yield AddOutcome(str(d), "unreadable", f"unreadable: {exc}")
     known = _known(cat, {f.uid for f in read})
     pending: list[dict[str, Any]] = []
+    told: list[AddOutcome] = []  # the outcomes of ``pending``, yielded once written
     moves: list[tuple[str, str]] = []
+    moved: list[AddOutcome] = []
     seen: dict[str, str] = {}
     for f in read:
         path = str(f.path)
@@ -151,21 +155,25 @@ def add_runs(cat: Catalog, run_dirs: Iterable[Path | str]) -> Iterator[AddOutcom
                                  "holds it; left as it is", f.uid)
             else:
                 moves.append((f.uid, path))
-                yield AddOutcome(path, "moved", f"moved: run {f.uid} found again at {path} (was {old[1]})", f.uid)
+                moved.append(AddOutcome(path, "moved", f"moved: run {f.uid} found again at {path} (was {old[1]})",
+                                        f.uid))
             continue
         entry = make_entry(f)
         pending.append(_row(entry))
         note = f" ({entry.note})" if entry.note else ""
         if old is None:
-            yield AddOutcome(path, "added", f"added: {path}{note}", f.uid)
+            told.append(AddOutcome(path, "added", f"added: {path}{note}", f.uid))
         else:
-            yield AddOutcome(path, "updated", f"updated: {path} was edited since it was added (run.json or points.csv "
-                             f"changed); its entry now holds the run as it is{note}", f.uid)
+            told.append(AddOutcome(path, "updated", f"updated: {path} was edited since it was added (run.json or "
+                                   f"points.csv changed); its entry now holds the run as it is{note}", f.uid))
         if len(pending) >= BATCH:
             _upsert(cat, pending)
-            pending = []
+            yield from told
+            pending, told = [], []
     _upsert(cat, pending)
+    yield from told
     _set_path(cat, moves)
+    yield from moved
 
 
 def _entry(row: Any) -> Entry:

@@ -195,3 +195,21 @@ def test_a_run_too_long_for_a_column_is_refused_alike_and_the_others_added(catal
     one_line_error(res, "1 run directory could not be read")
     assert "machine is 256 characters long" in res.stderr and "at most 255" in res.stderr
     assert [Path(r["path"]).name for r in listed(catalog_url)] == ["ok"]
+
+
+def test_a_database_failing_half_way_has_not_said_added(tmp_path: Path) -> None:
+    import sqlalchemy as sa
+
+    url = f"sqlite:///{tmp_path / 'catalog.sqlite'}"
+    runs = tmp_path / "runs"
+    write_run(runs, "ok", summary=straightness_summary(5.0, 0.2))
+    assert guideway("catalog", "list", "--catalog", url).returncode == 0  # the tables
+    engine = sa.create_engine(url)
+    with engine.begin() as conn:  # the database refuses the next insert, as a server going away would
+        conn.execute(sa.text("CREATE TRIGGER refuse BEFORE INSERT ON guideway_runs "
+                             "BEGIN SELECT RAISE(ABORT, 'refused by the test'); END"))
+    engine.dispose()
+    res = guideway("catalog", "add", runs / "ok", "--catalog", url)
+    one_line_error(res, "refused by the test")
+    assert "added:" not in res.stdout, res.stdout
+    assert listed(url) == []
