@@ -24,6 +24,7 @@ class AxisTrend:
     unit: str
     trend: Trend
     limit_source: str = ""
+    left_out: tuple[str, ...] = ()  # runs not complete (aborted, in progress), each "uid (status)"
 
     def to_dict(self) -> dict[str, Any]:
         """The ``guideway trend --json`` object (issue 20's keys, then the fit's details)."""
@@ -34,12 +35,16 @@ class AxisTrend:
                 "limit_um": t.limit_um, "crossing_date": t.crossing_date, "steps": [s.to_dict() for s in t.steps],
                 "u_crossing_days": t.u_crossing_days, "crossing_note": t.crossing_note,
                 "intercept_um": t.intercept_um, "t0": t.t0, "weights": t.weights, "chi2_per_dof": t.chi2_per_dof,
-                "limit_source": self.limit_source, "unit": self.unit, "days_per_year": 365.25}
+                "limit_source": self.limit_source, "unit": self.unit, "days_per_year": 365.25,
+                "left_out": list(self.left_out)}
 
     def print_text(self, stream: TextIO) -> None:
         t, u = self.trend, self.unit
         print(f"{self.value} on {self.machine or '(no machine)'} axis {self.axis or '(none)'}: {len(t.points)} run(s), "
               f"values in {u}", file=stream)
+        if self.left_out:
+            print(f"left out, not complete (their values cover only the points they had): {', '.join(self.left_out)}",
+                  file=stream)
         stepped = {s.to_run for s in t.steps}
         for p in t.points:
             unc = "" if p.u_um is None else f" ± {p.u_um:.3f}"
@@ -61,8 +66,8 @@ class AxisTrend:
 
 
 def axis_trend(cat: Catalog, machine: str, axis: str, value: str, limit_um: float | None = None) -> AxisTrend:
-    """The trend of ``value`` over the catalogued runs of ``machine`` / ``axis`` (runs without the value
-    are left out); the limit is ``limit_um``, else the newest run's ``[tolerance]`` on that value."""
+    """The trend of ``value`` over the catalogued runs of ``machine`` / ``axis`` (runs without the value,
+    and runs not complete, are left out); the limit is ``limit_um``, else the newest run's ``[tolerance]`` on that value."""
     if limit_um is not None and not (math.isfinite(limit_um) and limit_um > 0):
         raise UserError(f"--limit must be a positive number, got {limit_um}")
     entries = list_entries(cat, machine=machine, axis=axis, oldest_first=True)
@@ -70,10 +75,14 @@ def axis_trend(cat: Catalog, machine: str, axis: str, value: str, limit_um: floa
         raise UserError(f"no catalogued run of machine {machine!r} axis {axis!r} in {cat.url}; see guideway catalog "
                         "list (add runs with guideway catalog add)")
     points: list[TrendPoint] = []
+    left_out: list[str] = []
     unit, limit, source = "um", None, ""
     for e in entries:
         v = e.values.get(value)
         if not v:
+            continue
+        if e.status != "complete":  # an aborted run's E over half the axis is no point of the axis' trend
+            left_out.append(f"{e.uid} ({e.status or 'no status'})")
             continue
         try:
             parse_date(e.created)
@@ -85,10 +94,13 @@ def axis_trend(cat: Catalog, machine: str, axis: str, value: str, limit_um: floa
         points.append(TrendPoint(e.uid, e.created, float(v[f"value_{unit}"]), v.get(f"u_{unit}"), e.path))
         if v.get(f"limit_{unit}") is not None:
             limit, source = float(v[f"limit_{unit}"]), f"[tolerance] of run {e.uid}"
+    if not points and left_out:
+        raise UserError(f"no complete run of machine {machine!r} axis {axis!r} has a value {value!r}; not complete: "
+                        f"{', '.join(left_out)}")
     if not points:
         names = sorted({n for e in entries for n in e.values})
         raise UserError(f"no run of machine {machine!r} axis {axis!r} has a value {value!r}; "
                         f"its runs have: {', '.join(names) or 'no evaluated value'}")
     if limit_um is not None:
         limit, source = limit_um, "--limit"
-    return AxisTrend(machine, axis, value, unit, fit_trend(points, limit), source)
+    return AxisTrend(machine, axis, value, unit, fit_trend(points, limit), source, tuple(left_out))

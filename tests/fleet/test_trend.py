@@ -166,3 +166,25 @@ def test_trend_of_a_run_whose_created_is_not_a_time_is_one_line(tmp_path: Path) 
     assert guideway("catalog", "add", "--scan", runs, "--catalog", url).returncode == 0
     one_line_error(guideway("trend", "--machine", "mill-1", "--axis", "X", "--value", "minimum_zone",
                             "--catalog", url), "26/11/2026", "not an ISO 8601 time")
+
+
+def test_a_run_that_is_not_complete_is_left_out_of_the_trend(tmp_path: Path) -> None:
+    url = f"sqlite:///{tmp_path / 'catalog.sqlite'}"
+    runs = tmp_path / "runs"
+    # E rises 1 um a year over three complete runs; an aborted run over part of the axis has a small E
+    for name, created, e in (("r0", "2024-01-01T00:00:00Z", 4.0), ("r1", "2025-01-01T00:00:00Z", 5.0),
+                             ("r2", "2026-01-01T00:00:00Z", 6.0)):
+        write_run(runs, name, kind="positioning", created=created, summary=positioning_summary({"E": e}))
+    aborted = write_run(runs, "cut", kind="positioning", created="2025-07-02T12:00:00Z", status="aborted",
+                        summary=positioning_summary({"E": 1.0}))
+    assert guideway("catalog", "add", "--scan", runs, "--catalog", url).returncode == 0
+    res = guideway("trend", "--machine", "mill-1", "--axis", "X", "--value", "E", "--json", "--catalog", url)
+    out = json.loads(res.stdout)
+    assert [p["value_um"] for p in out["points"]] == [4.0, 5.0, 6.0]
+    # the three points: t = 0, 366/365.25, 731/365.25 years (2024 is a leap year); OLS slope
+    t = [0.0, 366 / 365.25, 731 / 365.25]
+    tm = sum(t) / 3
+    b = sum((ti - tm) * yi for ti, yi in zip(t, [4.0, 5.0, 6.0], strict=True)) / sum((ti - tm) ** 2 for ti in t)
+    assert out["slope_um_per_year"] == pytest.approx(b, rel=1e-12)
+    uid = json.loads((aborted / "run.json").read_text())["uid"]
+    assert out["left_out"] == [f"{uid} (aborted)"]

@@ -61,6 +61,8 @@ def trend_text(at: AxisTrend) -> str:
         text += f" · limit {t.limit_um:g} {u} reached {when}{ud}"
     if t.steps:
         text += f" · {len(t.steps)} step(s)"
+    if at.left_out:
+        text += f" · {len(at.left_out)} run(s) not complete left out"
     return text
 
 
