@@ -67,7 +67,8 @@ class AxisTrend:
 
 def axis_trend(cat: Catalog, machine: str, axis: str, value: str, limit_um: float | None = None) -> AxisTrend:
     """The trend of ``value`` over the catalogued runs of ``machine`` / ``axis`` (runs without the value,
-    and runs not complete, are left out); the limit is ``limit_um``, else the newest run's ``[tolerance]`` on that value."""
+    and runs not complete, are left out); the limit is ``limit_um``, else the newest run's ``[tolerance]``
+    on that value."""
     if limit_um is not None and not (math.isfinite(limit_um) and limit_um > 0):
         raise UserError(f"--limit must be a positive number, got {limit_um}")
     entries = list_entries(cat, machine=machine, axis=axis, oldest_first=True)
