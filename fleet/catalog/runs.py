@@ -75,8 +75,11 @@ def _upsert(cat: Catalog, rows: list[dict[str, Any]]) -> None:
         from sqlalchemy.dialects.sqlite import insert
     stmt = insert(runs_table)
     keep = {c: stmt.excluded[c] for c in _row_columns() if c not in ("uid", "added")}
+    # in uid order: each row locks its uid until the commit (PostgreSQL), so two writers taking the same uids
+    # in different orders (two rigs whose folders name the runs differently) would deadlock
     with cat.engine.begin() as conn:
-        conn.execute(stmt.on_conflict_do_update(index_elements=["uid"], set_=keep), rows)
+        conn.execute(stmt.on_conflict_do_update(index_elements=["uid"], set_=keep),
+                     sorted(rows, key=lambda r: r["uid"]))
 
 
 def _row_columns() -> list[str]:
