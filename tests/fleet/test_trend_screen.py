@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import asyncio
 from pathlib import Path
+from typing import Any
 
+import pytest
 from textual.app import App
 from textual.widgets import DataTable, Static
 
@@ -42,6 +44,13 @@ def test_filter_helper(tmp_path: Path) -> None:
     assert trend_values(view.entries, "mill-1", "X") == ["minimum_zone", "least_squares", "endpoint"]
 
 
+async def settle(app: App, pilot: Any) -> None:
+    """The screen reads the catalogue in a worker: wait for it, then for the screen to show it."""
+    await pilot.pause()
+    await app.workers.wait_for_complete()
+    await pilot.pause()
+
+
 class TrendApp(App):
     def __init__(self, screen: TrendScreen) -> None:
         super().__init__()
@@ -58,7 +67,7 @@ def test_trend_screen_shows_plot_table_and_fit(tmp_path: Path) -> None:
         screen = TrendScreen(url, "mill-1", "X", "minimum_zone")
         app = TrendApp(screen)
         async with app.run_test(size=(100, 40)) as pilot:
-            await pilot.pause()
+            await settle(app, pilot)
             table = screen.query_one(DataTable)
             assert table.row_count == 3
             assert [str(table.get_row_at(i)[1]) for i in range(3)] == ["5.000", "5.500", "6.000"]
@@ -67,7 +76,7 @@ def test_trend_screen_shows_plot_table_and_fit(tmp_path: Path) -> None:
             assert "+0.500" in fit and "limit 7" in fit and "reached 2027-01-01" in fit
             assert screen.query_one(Plot).data.series
             await pilot.press("v")
-            await pilot.pause()
+            await settle(app, pilot)
             assert screen.value == "least_squares"
             assert [str(table.get_row_at(i)[1]) for i in range(3)] == ["5.250", "5.750", "6.250"]
             await pilot.press("escape")
@@ -82,8 +91,40 @@ def test_trend_screen_says_what_is_missing(tmp_path: Path) -> None:
 
     async def drive() -> None:
         screen = TrendScreen(url, "mill-9", "X", "E")
-        async with TrendApp(screen).run_test(size=(100, 30)) as pilot:
-            await pilot.pause()
+        app = TrendApp(screen)
+        async with app.run_test(size=(100, 30)) as pilot:
+            await settle(app, pilot)
             assert "no catalogued run of machine 'mill-9'" in str(screen.query_one("#trend-title", Static).render())
+
+    asyncio.run(drive())
+
+
+def test_a_catalogue_that_does_not_answer_does_not_freeze_the_screen(tmp_path: Path,
+                                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    """The catalogue is read in a worker: while a server keeps the reading waiting, the screen says
+    so and Escape still goes back."""
+    import threading
+
+    import tui.screens.trend as trend_screen
+
+    release = threading.Event()
+
+    def waiting(*args: Any, **kwargs: Any) -> Any:
+        release.wait(10)
+        raise trend_screen.UserError("the server did not answer")
+
+    monkeypatch.setattr(trend_screen, "browse_catalog", waiting)
+
+    async def drive() -> None:
+        screen = TrendScreen("postgresql://nowhere/db", "mill-1", "X", "E")
+        app = TrendApp(screen)
+        async with app.run_test(size=(100, 30)) as pilot:
+            await pilot.pause()
+            assert "reading the trend of E" in str(screen.query_one("#trend-title", Static).render())
+            await pilot.press("escape")
+            await pilot.pause()
+            assert app.screen is not screen  # answered while the reading still waits
+            release.set()
+            await app.workers.wait_for_complete()
 
     asyncio.run(drive())

@@ -10,6 +10,7 @@ machine and axis) or from anywhere else: ``app.push_screen(TrendScreen(url, mach
 from __future__ import annotations
 
 from rich.text import Text
+from textual import work
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.markup import escape
@@ -93,27 +94,41 @@ class TrendScreen(Screen):
         yield Footer()
 
     def on_mount(self) -> None:
-        try:
-            view = browse_catalog(self.catalog_url, CatalogFilter(self.machine, self.axis))
-            self.values = trend_values(view.entries, self.machine, self.axis) or [self.value]
-        except UserError:
-            pass  # load() says it
-        self.load()
+        self.load(first=True)
 
-    def load(self) -> None:
+    def load(self, first: bool = False) -> None:
+        """Read the trend in a worker (a database server that does not answer must not freeze the
+        screen; docs/fleet.md) and show it when it is read."""
+        self.query_one("#trend-title", Static).update(escape(f"reading the trend of {self.value} ..."))
+        self.read(first)
+
+    @work(thread=True, exclusive=True, group="trend")
+    def read(self, first: bool) -> None:
+        values = self.values
+        try:
+            if first:
+                view = browse_catalog(self.catalog_url, CatalogFilter(self.machine, self.axis))
+                values = trend_values(view.entries, self.machine, self.axis) or [self.value]
+            with open_catalog(self.catalog_url, create=False) as cat:
+                at = axis_trend(cat, self.machine, self.axis, self.value, self.limit_um)
+        except UserError as exc:
+            self.app.call_from_thread(self.show, None, str(exc), values)
+            return
+        self.app.call_from_thread(self.show, at, "", values)
+
+    def show(self, at: AxisTrend | None, problem: str, values: list[str]) -> None:
+        if not self.is_mounted:  # closed while the worker read
+            return
+        self.values = values
+        self.trend = at
         title = self.query_one("#trend-title", Static)
         table = self.query_one(DataTable)
         table.clear(columns=True)
-        try:
-            with open_catalog(self.catalog_url, create=False) as cat:
-                self.trend = axis_trend(cat, self.machine, self.axis, self.value, self.limit_um)
-        except UserError as exc:
-            self.trend = None
-            title.update(escape(str(exc)))
+        if at is None:
+            title.update(escape(problem))
             self.query_one("#trend-plot", Plot).show(PlotData())
             self.query_one("#trend-fit", Static).update("")
             return
-        at = self.trend
         title.update(escape(f"{at.value} · machine {at.machine or '-'} · axis {at.axis or '-'} "
                             f"(v: next value of {len(self.values)})"))
         self.query_one("#trend-plot", Plot).show(trend_plot(at))
