@@ -68,9 +68,23 @@ def _line(i: int) -> int:
     return i + 2
 
 
+def _check_skipped(run: LoadedRun) -> None:
+    """run.json ``skipped``: each ``{"station": k, "pass": 0|1, ...}`` (version 1: no ``pass``, the forward
+    pass); a damaged record is one line, not a traceback when the gaps or the resume point are worked out."""
+    skipped = run.meta.get("skipped") or []
+    for i, s in enumerate(skipped if isinstance(skipped, list) else []):
+        station = s.get("station") if isinstance(s, dict) else None
+        p = s.get("pass", 0) if isinstance(s, dict) else None
+        if not (isinstance(station, int) and not isinstance(station, bool)) or p not in (0, 1) \
+                or isinstance(p, bool):
+            raise RunFormatError(f"{run.path}/run.json: skipped[{i}] must be {{\"station\": k, \"pass\": 0 or 1, "
+                                 f"\"reason\": ...}}, got {s!r:.60}; fix or restore run.json")
+
+
 def check_straightness_points(run: LoadedRun) -> StraightnessPlan:
     """Refuse a point outside the plan (one line: file, line, column); return the plan."""
     plan = straightness_plan(run)
+    _check_skipped(run)
     csv_path = f"{run.path}/points.csv"
     seen: dict[tuple[int, int], int] = {}
     pts = run.points
