@@ -21,6 +21,10 @@ from .reader import LoadedRun
 
 X_TOLERANCE_MM = 1e-6  # x_mm is written as k * L (exactly round-trip): allow float rounding only
 TARGET_TOLERANCE = 1e-9  # mm or deg: target_mm is written as the set-up's target itself
+# The documented maximum of setup.stations (docs/acquisition.md "Sizes"; acquisition/setup/maxima.py, which
+# this layer may not import; tests/saved_runs/test_plan_in_run_json.py holds the two equal): a damaged
+# run.json with 10^30 stations is refused before its steps are listed, not a process killed for memory.
+STATIONS_MAX = 100_000
 
 
 def _positive_number(meta_path: str, key: str, value: Any) -> float:
@@ -60,6 +64,9 @@ def straightness_plan(run: LoadedRun) -> StraightnessPlan:
     length = _positive_number(where, "block_length_mm", setup["block_length_mm"]) \
         if "block_length_mm" in setup else None
     stations = _positive_int(where, "stations", setup["stations"]) if "stations" in setup else None
+    if stations is not None and stations > STATIONS_MAX:
+        raise RunFormatError(f"{where}: setup.stations = {stations} is beyond the maximum of {STATIONS_MAX} "
+                             "stations (docs/acquisition.md, Sizes); fix or restore run.json")
     return StraightnessPlan(length, stations, bool(setup.get("return_pass", False)))
 
 
