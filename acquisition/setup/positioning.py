@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -213,13 +214,17 @@ def _nc_checked(check: Any, value: Any, what: str) -> Any:
         raise SetupError(str(exc)) from None
 
 
-def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup") -> PositioningSetup:
+def positioning_setup_from_dict(data: dict[str, Any], source: str = "setup", *,
+                                stored: bool = False) -> PositioningSetup:
     """Build and validate a :class:`PositioningSetup` from the TOML structure; every refusal names ``source``
-    (the set-up file) first."""
-    return naming_source(_positioning_setup, data, source)
+    (the set-up file) first.  ``stored``: the set-up of a run being resumed (run.json ``setup_source``),
+    which a version before the NC-string checks may have written with an axis name or program number the
+    controller would refuse; resuming writes no NC code (the part program checks its strings itself), so
+    those are not checked here, and the run's points are not stranded."""
+    return naming_source(functools.partial(_positioning_setup, nc_checked=not stored), data, source)
 
 
-def _positioning_setup(data: dict[str, Any], source: str) -> PositioningSetup:
+def _positioning_setup(data: dict[str, Any], source: str, nc_checked: bool = True) -> PositioningSetup:
     top = TomlTable(source, "", data)
     kind = top.get("kind", str, "positioning")
     if kind != "positioning":
@@ -230,8 +235,9 @@ def _positioning_setup(data: dict[str, Any], source: str) -> PositioningSetup:
     if axis_type not in AXIS_TYPES:
         raise SetupError(f"{source}: [axis] type must be linear or rotary, got {axis_type!r}")
     u = "deg" if axis_type == "rotary" else "mm"
-    name = _nc_checked(nc_text.axis_letter, ax.get("name", str, "C" if axis_type == "rotary" else "X"),
-                       f"{source}: [axis] name")
+    name = ax.get("name", str, "C" if axis_type == "rotary" else "X")
+    if nc_checked:
+        name = _nc_checked(nc_text.axis_letter, name, f"{source}: [axis] name")
     seed = ax.get("seed", int, 0)
     explicit = ax.get(f"targets_{u}", list, None)
     allow_nonconforming = ax.get("allow_nonconforming_targets", bool, False)
@@ -299,7 +305,8 @@ def _positioning_setup(data: dict[str, Any], source: str) -> PositioningSetup:
     check_devices(devices, source, sensor=False)
     gc = top.table("gcode")
     dialect, program_number = gc.get("dialect", str, "fanuc"), gc.get("program_number", int, 1000)
-    program_number = _nc_checked(nc_text.program_number, program_number, f"{source}: [gcode] program_number")
+    if nc_checked:
+        program_number = _nc_checked(nc_text.program_number, program_number, f"{source}: [gcode] program_number")
     sim = top.table("simulation")
     s = SimulatedAxisSetup()
     simulation = SimulatedAxisSetup(**{k: sim.get(k, bool if isinstance(v, bool) else float, v)

@@ -48,7 +48,7 @@ def positioning_setup_from_run(meta: dict[str, Any], run_dir: Path | str) -> Pos
     file's TOML structure, kept so that the same targets are rebuilt) validated again."""
     if "setup_source" not in meta:
         raise SetupError(f"{run_dir}: run.json holds no setup_source; resume with --setup")
-    return positioning_setup_from_dict(meta["setup_source"], f"{run_dir}/run.json setup_source")
+    return positioning_setup_from_dict(meta["setup_source"], f"{run_dir}/run.json setup_source", stored=True)
 
 
 def resumed_setup(meta: dict[str, Any], run_dir: Path | str,

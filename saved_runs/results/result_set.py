@@ -5,7 +5,9 @@ written into a temporary directory next to results/ (``RUN/.results.PID-HEX.tmpd
 of results/ (reports, compensation tables) are hard-linked into it, and the two directories are
 exchanged in one step (Linux ``renameat2(RENAME_EXCHANGE)``; elsewhere two renames, between which a
 crash leaves no results/ at all, never a mixture).  A kill at any moment therefore leaves results/
-holding one evaluation's complete set.  Leftovers of a killed writer (its temporary directory or
+holding one evaluation's complete set.  A file another command (``report``, ``export``) writes into
+results/ meanwhile is kept: after the swap, what it wrote into the old directory is moved into the new
+one (:func:`_carry_late_files`).  Leftovers of a killed writer (its temporary directory or
 files, recognised by the dead pid in their name) are removed by the next writer.
 """
 
@@ -42,6 +44,23 @@ def _exchange(a: Path, b: Path) -> bool:
     if err in (errno.EINVAL, errno.ENOSYS, errno.ENOTSUP):  # a file system or kernel without exchange
         return False
     raise OSError(err, os.strerror(err), str(b))
+
+
+def _carry_late_files(old: Path, results: Path) -> None:
+    """Move into ``results`` the files another command (``report``, ``export``) wrote into the old
+    results/ after they were carried over and before the swap: new names, or names it replaced (another
+    inode than the link carried over).  After the swap no writer reaches the old directory by its path,
+    so none is lost and none is left as its older copy."""
+    for e in os.scandir(old):
+        if e.name in SET_FILES or TEMP_NAME.match(e.name):
+            continue
+        try:
+            now = os.stat(results / e.name, follow_symlinks=False)
+        except FileNotFoundError:
+            now = None
+        if now is None or (not e.is_dir(follow_symlinks=False)
+                           and e.inode() != now.st_ino):
+            os.replace(e.path, results / e.name)
 
 
 def write_result_set(results_dir: Path | str, write: Callable[[Path], None]) -> Path:
@@ -82,6 +101,7 @@ def write_result_set(results_dir: Path | str, write: Callable[[Path], None]) -> 
                     os.rename(results, old)
                     os.rename(tmp, results)
                     tmp = old
+                _carry_late_files(tmp, results)
             else:
                 os.rename(tmp, results)
             fsync_dir(run_dir)

@@ -102,8 +102,13 @@ def temp_owner_alive(name: str) -> bool:
     m = TEMP_NAME.match(name)
     if m is None or m.group("pid") is None:
         return False
+    return pid_alive(int(m.group("pid")))
+
+
+def pid_alive(pid: int) -> bool:
+    """Whether process ``pid`` runs on this machine."""
     try:
-        os.kill(int(m.group("pid")), 0)
+        os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:  # another user's live process

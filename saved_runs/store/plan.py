@@ -21,6 +21,10 @@ from .reader import LoadedRun
 
 X_TOLERANCE_MM = 1e-6  # x_mm is written as k * L (exactly round-trip): allow float rounding only
 TARGET_TOLERANCE = 1e-9  # mm or deg: target_mm is written as the set-up's target itself
+# The documented maximum of setup.stations (docs/acquisition.md "Sizes"; acquisition/setup/maxima.py, which
+# this layer may not import; tests/saved_runs/test_plan_in_run_json.py holds the two equal): a damaged
+# run.json with 10^30 stations is refused before its steps are listed, not a process killed for memory.
+STATIONS_MAX = 100_000
 
 
 def _positive_number(meta_path: str, key: str, value: Any) -> float:
@@ -60,6 +64,9 @@ def straightness_plan(run: LoadedRun) -> StraightnessPlan:
     length = _positive_number(where, "block_length_mm", setup["block_length_mm"]) \
         if "block_length_mm" in setup else None
     stations = _positive_int(where, "stations", setup["stations"]) if "stations" in setup else None
+    if stations is not None and stations > STATIONS_MAX:
+        raise RunFormatError(f"{where}: setup.stations = {stations} is beyond the maximum of {STATIONS_MAX} "
+                             "stations (docs/acquisition.md, Sizes); fix or restore run.json")
     return StraightnessPlan(length, stations, bool(setup.get("return_pass", False)))
 
 
@@ -68,9 +75,23 @@ def _line(i: int) -> int:
     return i + 2
 
 
+def _check_skipped(run: LoadedRun) -> None:
+    """run.json ``skipped``: each ``{"station": k, "pass": 0|1, ...}`` (version 1: no ``pass``, the forward
+    pass); a damaged record is one line, not a traceback when the gaps or the resume point are worked out."""
+    skipped = run.meta.get("skipped") or []
+    for i, s in enumerate(skipped if isinstance(skipped, list) else []):
+        station = s.get("station") if isinstance(s, dict) else None
+        p = s.get("pass", 0) if isinstance(s, dict) else None
+        if not (isinstance(station, int) and not isinstance(station, bool)) or p not in (0, 1) \
+                or isinstance(p, bool):
+            raise RunFormatError(f"{run.path}/run.json: skipped[{i}] must be {{\"station\": k, \"pass\": 0 or 1, "
+                                 f"\"reason\": ...}}, got {s!r:.60}; fix or restore run.json")
+
+
 def check_straightness_points(run: LoadedRun) -> StraightnessPlan:
     """Refuse a point outside the plan (one line: file, line, column); return the plan."""
     plan = straightness_plan(run)
+    _check_skipped(run)
     csv_path = f"{run.path}/points.csv"
     seen: dict[tuple[int, int], int] = {}
     pts = run.points

@@ -1,10 +1,11 @@
 """Runs written at once (``guideway import``, ``guideway simulate``): complete, or not there at all.
 
-The run is written into a temporary directory next to ``--out`` (``.NAME.XXXXXXXX.partial``, under its
+The run is written into a temporary directory next to ``--out`` (``.NAME.PID-XXXXXXXX.partial``, under its
 writer lock), and renamed to ``--out`` only when run.json says complete: a process killed half way
 leaves no run at ``--out`` that ``process`` could take for a crashed measurement.  A temporary
-directory left by a killed writer (its lock no longer held) is removed by the next write to the same
-``--out``.
+directory left by a killed writer (its process gone, its lock no longer held) is removed by the next
+write to the same ``--out``.  The pid matters: a writer makes its directory before it can lock it, and
+an unlocked directory of a live writer is not a leftover.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import re
 import secrets
 import shutil
 import uuid
@@ -19,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import RunFormatError
-from .files import fsync_dir
+from .files import fsync_dir, pid_alive
 from .lock import LOCK_NAME, RunInUseError, run_files, take_run_lock
 from .writer import RunStore
 
@@ -44,9 +46,14 @@ def _refuse_taken(out: Path) -> None:
 
 
 def _remove_stale_partials(parent: Path, name: str) -> None:
-    """Remove temporary directories of earlier writes to ``name`` whose writer is gone (lock free)."""
-    for p in parent.glob(f".{name}.*{PARTIAL_SUFFIX}"):
-        if not p.is_dir() or p.is_symlink():
+    """Remove temporary directories of earlier writes to ``name`` whose writer is gone (process and lock)."""
+    own = re.compile(rf"^\.{re.escape(name)}\.(?:(?P<pid>\d+)-)?[0-9a-f]{{8}}{re.escape(PARTIAL_SUFFIX)}$")
+    for p in parent.glob(f".*{PARTIAL_SUFFIX}"):
+        m = own.match(p.name)
+        if m is None or not p.is_dir() or p.is_symlink():
+            continue
+        # made by a live process: perhaps not locked yet (_make_partial, then take_run_lock) - not a leftover
+        if m.group("pid") is not None and pid_alive(int(m.group("pid"))):
             continue
         try:
             lock = take_run_lock(p)
@@ -59,7 +66,7 @@ def _remove_stale_partials(parent: Path, name: str) -> None:
 def _make_partial(parent: Path, name: str) -> Path:
     """A new temporary run directory next to ``--out``, with the mode an ordinary mkdir gives."""
     for _ in range(100):
-        tmp = parent / f".{name}.{secrets.token_hex(4)}{PARTIAL_SUFFIX}"
+        tmp = parent / f".{name}.{os.getpid()}-{secrets.token_hex(4)}{PARTIAL_SUFFIX}"
         try:
             tmp.mkdir(0o777)
             return tmp
