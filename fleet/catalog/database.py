@@ -147,6 +147,10 @@ def open_catalog(url: str | None = None, *, create: bool = True) -> Catalog:
     Refuses a catalogue of a newer schema version, naming the version; a server that cannot be
     reached is one line naming its host and port and what to check."""
     u = _parsed(catalog_url(url))
+    if not create and u.get_backend_name() == "sqlite" and u.database not in (None, "", ":memory:") \
+            and not Path(u.database).exists():  # connecting would make an empty file
+        raise UserError(f"no catalogue in {_where(u)} yet; add runs first (guideway catalog add RUN... or "
+                        "--scan DIR), or check --catalog / GUIDEWAY_CATALOG")
     engine = _engine(u)
     cat = Catalog(engine, shown(u), _where(u))
     try:
@@ -189,7 +193,8 @@ def _prepare(engine: Any, create: bool) -> None:
                     raise UserError(f"the catalogue has schema version {version}; this guideway knows version "
                                     f"{SCHEMA_VERSION} and older: use a newer guideway with it")
                 if version is None and not create:
-                    raise UserError("no catalogue there yet; add a run first (guideway catalog add RUN)")
+                    raise UserError(f"no catalogue in {_where(engine.url)} yet; add runs first (guideway catalog "
+                                    "add RUN... or --scan DIR), or check --catalog / GUIDEWAY_CATALOG")
                 if version is None:
                     metadata.create_all(conn)
                     conn.execute(sa.insert(info_table).values(key="schema_version", value=str(SCHEMA_VERSION)))

@@ -203,7 +203,10 @@ def test_a_database_failing_half_way_has_not_said_added(tmp_path: Path) -> None:
     url = f"sqlite:///{tmp_path / 'catalog.sqlite'}"
     runs = tmp_path / "runs"
     write_run(runs, "ok", summary=straightness_summary(5.0, 0.2))
-    assert guideway("catalog", "list", "--catalog", url).returncode == 0  # the tables
+    from fleet.catalog.database import open_catalog
+
+    with open_catalog(url):  # a new catalogue: the tables
+        pass
     engine = sa.create_engine(url)
     with engine.begin() as conn:  # the database refuses the next insert, as a server going away would
         conn.execute(sa.text("CREATE TRIGGER refuse BEFORE INSERT ON guideway_runs "
@@ -213,3 +216,17 @@ def test_a_database_failing_half_way_has_not_said_added(tmp_path: Path) -> None:
     one_line_error(res, "refused by the test")
     assert "added:" not in res.stdout, res.stdout
     assert listed(url) == []
+
+
+def test_listing_or_trending_a_catalogue_that_does_not_exist_says_so_and_creates_nothing(tmp_path: Path) -> None:
+    missing = tmp_path / "typo" / "catalog.sqlite"
+    url = f"sqlite:///{missing}"
+    one_line_error(guideway("catalog", "list", "--catalog", url), f"no catalogue in the SQLite file {missing}",
+                   "guideway catalog add")
+    one_line_error(guideway("trend", "--machine", "m", "--axis", "X", "--value", "E", "--catalog", url),
+                   "no catalogue in the SQLite file")
+    one_line_error(guideway("catalog", "remove", tmp_path, "--catalog", url), "no catalogue")
+    assert not missing.exists() and not missing.parent.exists()
+    beside = tmp_path / "catalgo.sqlite"  # a typo in an existing folder: no empty catalogue left behind
+    one_line_error(guideway("catalog", "list", "--catalog", f"sqlite:///{beside}"), "no catalogue in")
+    assert not beside.exists()

@@ -17,10 +17,12 @@ from pathlib import Path
 from typing import Any
 
 
-def _open(args: argparse.Namespace) -> Any:
+def _open(args: argparse.Namespace, create: bool = False) -> Any:
+    """The catalogue of ``--catalog``; only ``add`` makes a new one (a mistyped URL to list or
+    remove from is said, not created)."""
     from fleet.catalog.database import open_catalog
 
-    return open_catalog(args.catalog)
+    return open_catalog(args.catalog, create=create)
 
 
 def run_add(args: argparse.Namespace) -> int:
@@ -31,7 +33,7 @@ def run_add(args: argparse.Namespace) -> int:
         raise UserError("give run directories (guideway catalog add RUN...) or --scan DIR, not both or neither")
     dirs = scan_run_dirs(args.scan) if args.scan is not None else list(args.runs)
     counts: dict[str, int] = {}
-    with _open(args) as cat:
+    with _open(args, create=True) as cat:
         for outcome in add_runs(cat, dirs):
             counts[outcome.action] = counts.get(outcome.action, 0) + 1
             print(outcome.message, file=sys.stderr if outcome.action == "unreadable" else sys.stdout)

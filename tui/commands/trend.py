@@ -16,7 +16,7 @@ def run(args: argparse.Namespace) -> int:
     from fleet.catalog.database import open_catalog
     from fleet.trend.of_catalog import axis_trend
 
-    with open_catalog(args.catalog) as cat:
+    with open_catalog(args.catalog, create=False) as cat:  # a mistyped URL is said, not created
         at = axis_trend(cat, args.machine, args.axis, args.value, args.limit)
     if args.report is not None:
         from fleet.trend.report import write_trend_report
