@@ -180,3 +180,38 @@ def test_the_tui_entry_point_holds_the_lock_too(killed_run: Path) -> None:
     finally:
         lock.release()
     assert (run_dir / "points.csv").read_text() == before
+
+
+def test_the_refusal_names_the_new_holder_not_the_killed_writer_before_it(tmp_path: Path) -> None:
+    """A killed writer leaves its record in the lock file; the next holder rewrites it just after taking
+    the lock.  A writer refused in between must wait for the new record, not name the dead process
+    (seen in the soak trials: two resumes of a killed run)."""
+    import fcntl
+    import threading
+    import time
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()  # a pid that no longer runs
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    path = run_dir / LOCK_NAME
+    path.write_text(json.dumps({"pid": dead.pid, "host": socket.gethostname(), "since": "2026-01-01T00:00:00Z"}))
+    fd = os.open(path, os.O_RDWR)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # the new holder has the lock, its record not yet written
+    mine = json.dumps({"pid": os.getpid(), "host": socket.gethostname(), "since": "2026-11-26T12:00:00Z"})
+
+    def record_later() -> None:
+        time.sleep(0.2)
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, mine.encode(), 0)
+
+    writer = threading.Thread(target=record_later)
+    writer.start()
+    try:
+        with pytest.raises(RunInUseError) as refused:
+            take_run_lock(run_dir)
+    finally:
+        writer.join()
+        os.close(fd)
+    assert f"pid {os.getpid()} on host" in str(refused.value)
+    assert f"pid {dead.pid} " not in str(refused.value)

@@ -28,6 +28,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from ..errors import RunFormatError
+from .files import pid_alive
 
 LOCK_NAME = ".writer.lock"
 HOLDER_WAIT_S = 1.0  # how long a refused writer waits for the holder to record itself in the lock file
@@ -42,17 +43,23 @@ def _now_iso() -> str:
 
 
 def holder_text(lock_path: Path) -> str:
-    """``pid N on host H, since T`` of the process holding ``lock_path`` (as it recorded itself)."""
+    """``pid N on host H, since T`` of the process holding ``lock_path`` (as it recorded itself).
+
+    The holder writes its record just after taking the lock; until then the file is empty or still
+    names the writer before it (a killed writer leaves its record behind), so a record of a process
+    that no longer runs on this host is read again until the holder's own is there."""
     deadline = time.monotonic() + HOLDER_WAIT_S
     while True:
         try:
             info = json.loads(lock_path.read_text(encoding="utf-8"))
-            return f"pid {int(info['pid'])} on host {info['host']}, since {info['since']}"
+            pid = int(info["pid"])
+            if info["host"] != socket.gethostname() or pid_alive(pid):
+                return f"pid {pid} on host {info['host']}, since {info['since']}"
         except (OSError, ValueError, KeyError, TypeError):
-            # the holder has taken the lock but not written its name yet (or the file just went away)
-            if time.monotonic() > deadline:
-                return "a process that has not recorded its pid yet"
-            time.sleep(0.02)
+            pass  # the holder has taken the lock but not written its name yet (or the file just went away)
+        if time.monotonic() > deadline:
+            return "a process that has not recorded its pid yet"
+        time.sleep(0.02)
 
 
 class RunLock:
