@@ -9,7 +9,6 @@ from pathlib import Path
 
 from saved_runs.catalog.folder import RunSummary
 
-from .config import configured_url
 from .database import open_catalog
 from .entry import Entry
 from .runs import list_entries
@@ -35,11 +34,6 @@ class CatalogView:
     entries: list[Entry]
     machines: list[str] = field(default_factory=list)
     axes: list[str] = field(default_factory=list)
-
-
-def catalog_configured() -> str | None:
-    """The catalogue the browser reads (``GUIDEWAY_CATALOG``), None when none is configured."""
-    return configured_url(None)
 
 
 def summary_of(entry: Entry) -> RunSummary:

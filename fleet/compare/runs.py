@@ -15,8 +15,6 @@ from saved_runs.errors import UserError
 from saved_runs.report.common import simulated
 from saved_runs.store.reader import LoadedRun
 
-LABELS = ("A", "B")
-
 
 def axis_name(meta: dict[str, Any]) -> str:
     """The axis a run names (run.json ``axis``, else the positioning set-up's ``axis_name``), or ""."""
