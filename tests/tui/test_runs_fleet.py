@@ -16,24 +16,18 @@ from tui.screens.runs import RunsScreen
 from tui.screens.trend import TrendScreen
 
 
-def positioning_runs(folder: Path, machines: dict[str, str]) -> dict[str, Path]:
-    """Copies of the saved positioning run, each its own run (uid), on the machine given, one day apart
-    in the order given."""
+def positioning_runs(folder: Path, machines: dict[str, str], created: dict[str, str] | None = None
+                     ) -> dict[str, Path]:
+    """Copies of the saved positioning run, each its own run (uid), on the machine given, one month
+    apart in the order given (or ``created`` as given by name)."""
     out = {}
     for i, (name, machine) in enumerate(machines.items()):
-        src = copy_run("positioning-x", folder)
-        run = src.rename(folder / name)
-        copy_run_meta(run, uid=uuid.uuid4().hex, machine=machine, created=f"2026-0{i + 1}-01T00:00:00Z")
-        out[name] = run
+        when = (created or {}).get(name, f"2026-0{i + 1}-01T00:00:00Z")
+        copied = copy_run("positioning-x", folder / f".copy{i}", uid=uuid.uuid4().hex, machine=machine,
+                          created=when)
+        out[name] = copied.rename(folder / name)
+        copied.parent.rmdir()
     return out
-
-
-def copy_run_meta(run: Path, **meta: Any) -> None:
-    import json
-
-    data = json.loads((run / "run.json").read_text())
-    data.update(meta)
-    (run / "run.json").write_text(json.dumps(data))
 
 
 def drive(runs_dir: Path, keys: tuple[str, ...], catalog_url: str | None = None) -> list[Any]:
@@ -108,10 +102,9 @@ def test_l_switches_to_the_folder_and_an_unreadable_catalogue_falls_back_to_it(t
 
 
 def test_the_older_is_a_by_time_when_created_has_an_offset(tmp_path: Path) -> None:
-    runs = positioning_runs(tmp_path, {"before": "m1", "after": "m1"})
     # 10:00 at +02:00 is 08:00 UTC, an hour before 09:00Z, though its text sorts after it
-    copy_run_meta(runs["before"], created="2026-03-01T10:00:00+02:00")
-    copy_run_meta(runs["after"], created="2026-03-01T09:00:00Z")
+    runs = positioning_runs(tmp_path, {"before": "m1", "after": "m1"},
+                            created={"before": "2026-03-01T10:00:00+02:00", "after": "2026-03-01T09:00:00Z"})
     screen = drive(tmp_path, ("space", "down", "space", "x"))[-1][0]
     assert isinstance(screen, CompareScreen)
     assert (screen.run_a, screen.run_b) == (runs["before"], runs["after"])
