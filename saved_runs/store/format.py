@@ -4,6 +4,7 @@ points.csv columns of each kind, and how a value is written to points.csv (exact
 from __future__ import annotations
 
 import math
+from datetime import UTC, datetime
 from typing import Any
 
 from processing.columns import (
@@ -45,3 +46,8 @@ def format_cell(value: Any) -> str:
     if isinstance(value, float):
         return repr(value) if math.isfinite(value) else "nan"
     return str(value)
+
+
+def utc_now_iso() -> str:
+    """Now, as run.json and the writer lock record times: ``2026-11-26T20:11:47Z`` (UTC, seconds)."""
+    return datetime.now(UTC).isoformat(timespec="seconds").replace("+00:00", "Z")

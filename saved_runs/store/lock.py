@@ -24,11 +24,11 @@ import os
 import socket
 import time
 from collections.abc import Iterator
-from datetime import UTC, datetime
 from pathlib import Path
 
 from ..errors import RunFormatError
 from .files import pid_alive
+from .format import utc_now_iso
 
 LOCK_NAME = ".writer.lock"
 HOLDER_WAIT_S = 1.0  # how long a refused writer waits for the holder to record itself in the lock file
@@ -36,10 +36,6 @@ HOLDER_WAIT_S = 1.0  # how long a refused writer waits for the holder to record 
 
 class RunInUseError(RunFormatError):
     """Another process writes the run directory."""
-
-
-def _now_iso() -> str:
-    return datetime.now(UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
 
 
 def holder_text(lock_path: Path) -> str:
@@ -118,7 +114,7 @@ def take_run_lock(run_dir: Path | str, what: str = "the run") -> RunLock:
         if not same:  # the holder removed the file between our open and our lock: lock the new one
             os.close(fd)
             continue
-        info = json.dumps({"pid": os.getpid(), "host": socket.gethostname(), "since": _now_iso()})
+        info = json.dumps({"pid": os.getpid(), "host": socket.gethostname(), "since": utc_now_iso()})
         os.ftruncate(fd, 0)
         os.pwrite(fd, (info + "\n").encode("utf-8"), 0)
         return RunLock(run_dir, fd)

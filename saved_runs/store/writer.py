@@ -10,22 +10,17 @@ from __future__ import annotations
 import math
 import os
 import time
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, TextIO
 
 from ..errors import FileWriteError, RunFormatError
 from .files import fsync_dir, write_json_atomic, write_text_atomic
-from .format import FORMAT, VERSION, format_cell, point_columns
+from .format import FORMAT, VERSION, format_cell, point_columns, utc_now_iso
 from .lock import run_files
 from .plan import check_points_against_plan
 from .reader import load_run
 
 STATUS_BY_EXIT = {"success": "complete", "abort": "aborted", "fail": "aborted"}
-
-
-def utc_now_iso() -> str:
-    return datetime.now(UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
 
 
 class RunStore:
