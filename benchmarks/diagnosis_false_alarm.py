@@ -30,6 +30,17 @@ processing/diagnosis/serial.py replaced for the benchmark): what estimating φ f
 ``--phi-ml`` replaces it by the maximum-likelihood φ (the exact AR(1) likelihood of the regression,
 concentrated on φ) instead: less biased towards 1, evaluated as an alternative (docs/diagnosis.md).
 
+``--history H`` gives each diagnosis H earlier null runs of the same simulated machine (same φ and σ, their
+own noise) through ``--noise-from``: φ is then estimated from H + 1 runs instead of one.
+
+``--bound REPS`` computes how well any test can do on one run: the Neyman–Pearson power against the
+hidden drift of 5 GLS standard errors at φ (the benchmark run's own times, offset unknown), of the
+most powerful test that holds its false alarms to α (1 %, 0.5 %, 0.2 %) on one null machine of
+coefficient φ₀ ≥ φ and marginal σ₀ (the least favourable of a grid).  By the Neyman–Pearson lemma no
+test that keeps its false alarms at α on every machine with φ₀ ≤ 0.98 detects the drift more often:
+
+    python benchmarks/diagnosis_false_alarm.py --bound 20000 --phi 0.9
+
 ``--drift-mc REPS`` isolates the one test under correlated noise, outside the tool: y = a + b·t + AR(1)
 noise at n = 210 equally spaced points, the drift b tested by the Prais–Winsten GLS t-statistic with φ
 known, φ̂ by matching moments (serial.py's estimator) or by maximum likelihood; prints each statistic's
@@ -227,17 +238,67 @@ def drift_monte_carlo(phi: float, reps: int, n: int = 210, seed: int = 1) -> Non
         print(line)
 
 
-def count_ar1(phi: float, seeds: int, sigma_um: float, effect: str, tmp: Path, n_se: float = 5.0) -> None:
+def power_bound(phi: float, reps: int, tmp: Path, n_se: float = 5.0) -> None:
+    """The Neyman–Pearson bound of ``--bound`` (see the docstring), on the contrasts of the run (the offset
+    unknown: the tool's tests are invariant to it)."""
+    out = tmp / f"bound_{phi}"
+    simulate_run(scenario_from_dict(POSITIONING, "bound"), out, seed=1, noise=False)
+    t = np.sort(pd.read_csv(out / "points.csv")["time_s"].to_numpy()) / 60.0
+    n = len(t)
+    k = np.arange(n)
+
+    def corr(f: float) -> np.ndarray:
+        return f ** np.abs(k[:, None] - k[None, :])
+
+    size = n_se * gls_standard_error(t, k, phi, 1.0)  # marginal σ 1: σ₀ below is in units of the true σ
+    contrasts = np.linalg.qr(np.ones((n, 1)), mode="complete")[0][:, 1:]  # orthonormal, orthogonal to the offset
+    mean = contrasts.T @ (size * t)
+    cov1 = contrasts.T @ corr(phi) @ contrasts
+    rng = np.random.default_rng(3)
+    y1 = mean[:, None] + np.linalg.cholesky(cov1) @ rng.standard_normal((n - 1, reps))
+    z0 = rng.standard_normal((n - 1, reps))
+    d1 = y1 - mean[:, None]
+    q1 = -0.5 * np.sum(d1 * np.linalg.solve(cov1, d1), axis=0)
+    m1 = np.linalg.solve(cov1, mean)
+    print(f"Neyman-Pearson bound, drift of {n_se:g} GLS standard errors at phi {phi}, {n} points, {reps} draws:")
+    alphas = (0.01, 0.005, 0.002)
+    worst = dict.fromkeys(alphas, (2.0, 0.0, 0.0))
+    for phi0 in (phi, *[f for f in (0.75, 0.8, 0.85, 0.9, 0.92, 0.94, 0.95, 0.96, 0.97, 0.98) if f > phi]):
+        base = contrasts.T @ corr(phi0) @ contrasts
+        u = np.linalg.cholesky(base) @ z0  # null draws at σ₀ = 1; at σ₀ they are σ₀·u
+        # log-likelihood ratio ln p₁ − ln p₀ without its constants, at null σ₀ (cov₀ = σ₀² base):
+        # −½ (y − m)ᵀ cov₁⁻¹ (y − m) + ½ yᵀ cov₀⁻¹ y, expanded in σ₀ so that the grid costs no further solve
+        a, b = np.sum(u * np.linalg.solve(cov1, u), 0), m1 @ u
+        c = np.sum(u * np.linalg.solve(base, u), 0)
+        e = np.sum(y1 * np.linalg.solve(base, y1), 0)
+        for s0 in np.arange(1.0, 3.001, 0.05):
+            lam0 = -0.5 * (s0 * s0 * a - 2 * s0 * b + m1 @ mean) + 0.5 * c
+            lam1 = q1 + 0.5 * e / (s0 * s0)
+            for alpha in alphas:
+                power = float(np.mean(lam1 > np.quantile(lam0, 1 - alpha)))
+                worst[alpha] = min(worst[alpha], (power, phi0, float(s0)))
+    for alpha, (power, phi0, s0) in worst.items():
+        print(f"  false alarms <= {alpha}: power <= {power:.3f} (least favourable null: phi0 {phi0}, "
+              f"sigma0 {s0:.2f} sigma)")
+
+
+def count_ar1(phi: float, seeds: int, sigma_um: float, effect: str, tmp: Path, n_se: float = 5.0,
+              history: int = 0) -> None:
     sc = scenario_from_dict(POSITIONING, "ar1")
     alarms, found, ambiguous, examples = 0, 0, 0, []
     partners: dict[str, int] = {}
     name, unit = UNIT_EFFECTS[effect]
     size = None
     for seed in range(seeds):
+        earlier = []  # the same machine's earlier null runs (--history)
+        for h in range(history):
+            earlier.append(tmp / f"ar1_{phi}_{seed}_earlier{h}")
+            simulate_run(sc, earlier[-1], seed=60_000 + seed * history + h, noise=False)
+            with_ar1_noise(earlier[-1], phi, sigma_um, 70_000 + seed * history + h)
         out = tmp / f"ar1_{phi}_{seed}"
         simulate_run(sc, out, seed=20_000 + seed, noise=False)
         with_ar1_noise(out, phi, sigma_um, seed)
-        d = diagnose_run(out)
+        d = diagnose_run(out, noise_from=earlier)
         if d.named or d.ambiguous:
             alarms += 1
             examples.append((seed, d.named, d.ambiguous))
@@ -250,7 +311,7 @@ def count_ar1(phi: float, seeds: int, sigma_um: float, effect: str, tmp: Path, n
         out = tmp / f"ar1_{phi}_{seed}_effect"
         simulate_run(hidden, out, seed=30_000 + seed, noise=False)
         with_ar1_noise(out, phi, sigma_um, 50_000 + seed)
-        d = diagnose_run(out)
+        d = diagnose_run(out, noise_from=earlier)
         found += effect in d.named
         # found but not attributed: reported ambiguous with another effect (counted apart, not as named)
         pair = next((g for g in d.ambiguous if effect in g), None)
@@ -260,7 +321,8 @@ def count_ar1(phi: float, seeds: int, sigma_um: float, effect: str, tmp: Path, n
                 if other != effect:
                     partners[other] = partners.get(other, 0) + 1
     lo, hi = clopper_pearson(alarms, seeds)
-    print(f"AR(1) phi {phi}, marginal sigma {sigma_um} um: {alarms} false alarm(s) in {seeds} null runs, "
+    told = f", phi from {history} earlier runs and this one" if history else ""
+    print(f"AR(1) phi {phi}, marginal sigma {sigma_um} um{told}: {alarms} false alarm(s) in {seeds} null runs, "
           f"rate {alarms / seeds:.3f} (95 % interval {lo:.3f} … {hi:.3f})"
           + (f"; e.g. {examples[:3]}" if examples else ""))
     lo, hi = clopper_pearson(found, seeds)
@@ -281,7 +343,14 @@ def main() -> int:
     ap.add_argument("--phi-known", action="store_true", help="--ar1: the tests whitened with the true phi")
     ap.add_argument("--phi-ml", action="store_true", help="--ar1: phi estimated by maximum likelihood")
     ap.add_argument("--drift-mc", type=int, default=0, metavar="REPS", help="the drift test alone, REPS runs")
+    ap.add_argument("--history", type=int, default=0, metavar="H", help="--ar1: H earlier runs of the machine")
+    ap.add_argument("--bound", type=int, default=0, metavar="REPS", help="the best any test can do on one run")
     args = ap.parse_args()
+    if args.bound:
+        with tempfile.TemporaryDirectory() as tmp:
+            for phi in args.phi:
+                power_bound(phi, args.bound, Path(tmp), args.se)
+        return 0
     if args.drift_mc:
         for phi in args.phi:
             drift_monte_carlo(phi, args.drift_mc)
@@ -297,7 +366,7 @@ def main() -> int:
                     from processing.diagnosis import serial
                     serial.ar1_coefficient = ml_ar1_coefficient
                     print("(phi estimated by maximum likelihood)")
-                count_ar1(phi, args.seeds, args.sigma_um, args.effect, Path(tmp), args.se)
+                count_ar1(phi, args.seeds, args.sigma_um, args.effect, Path(tmp), args.se, args.history)
         return 0
     with tempfile.TemporaryDirectory() as tmp:
         if args.only in (None, "positioning"):

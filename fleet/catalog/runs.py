@@ -106,7 +106,7 @@ def _known(cat: Catalog, uids: Iterable[str]) -> dict[str, tuple[str, str]]:
     return out
 
 
-def _still_there(path: str, uid: str) -> bool:
+def still_holds(path: str, uid: str) -> bool:
     """Whether ``path`` still holds the run ``uid`` (else the run has moved away from it)."""
     try:
         return json.loads((Path(path) / "run.json").read_bytes()).get("uid") == uid
@@ -153,7 +153,7 @@ def add_runs(cat: Catalog, run_dirs: Iterable[Path | str]) -> Iterator[AddOutcom
         if old is not None and old[0] == f.content_hash:
             if old[1] == path:
                 yield AddOutcome(path, "unchanged", f"unchanged: {path}", f.uid)
-            elif _still_there(old[1], f.uid):
+            elif still_holds(old[1], f.uid):
                 yield AddOutcome(path, "copy", f"copy: {path} holds run {f.uid}, catalogued at {old[1]} which still "
                                  "holds it; left as it is", f.uid)
             else:

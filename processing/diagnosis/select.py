@@ -17,7 +17,8 @@ candidate is *significant* when all of:
    held-out positions.
 
 Criteria 1 and 2 compare the residual sums of squares after whitening for AR(1) errors in time
-order (serial.py: feasible generalised least squares, φ estimated from the larger model).
+order (serial.py: feasible generalised least squares, φ estimated from the larger model and pooled
+with the estimates of earlier runs of the machine when the rule carries them).
 
 The best significant candidate (lowest BIC; a physical effect before a free table, which is
 tried only when no physical effect is significant) is added and the loop repeats.  A backward
@@ -74,6 +75,8 @@ class Rule:
     # distinct positions: beyond it they fit any shape, and the free table is the honest description
     position_share: float = 0.5
     excluded: tuple[str, ...] = ()  # candidate types left out (the second pass without position-only effects)
+    # AR(1) estimates of the channel's errors from earlier runs of the same machine, pooled with the run's own
+    ar1_history: tuple[serial.Ar1Estimate, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         return {"alpha_per_step": self.alpha, "channels": self.channels,
@@ -83,7 +86,8 @@ class Rule:
                              "adds nothing significant after it", "max_steps": self.max_steps,
                 "resolution_um": self.resolution_um, "position_parameters_max_share": self.position_share,
                 "cv_positions": "position-only effects must lower the RMSE of predicting held-out positions",
-                "excluded": list(self.excluded)}
+                "excluded": list(self.excluded),
+                "ar1_history": [e.to_dict() for e in self.ar1_history]}
 
 
 
@@ -308,7 +312,7 @@ def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int,
     if added <= 0 or dof <= 0:
         return None
     n = obs.n
-    phi, rss0, rss1 = whitened_rss(obs, current, fit)
+    phi, rss0, rss1 = whitened_rss(obs, current, fit, rule.ar1_history)
     dbic = bic(rss1, n, fit.n_params) - bic(rss0, n, current.n_params)
     f_stat = ((rss0 - rss1) / added_total) / (rss1 / dof) if rss1 > 0 else math.inf
     p = float(stats.f.sf(f_stat, added_total, dof))
@@ -335,14 +339,16 @@ def test_candidate(obs: Observations, current: Fit, cand: Effect, k_tested: int,
                          significant, m_eff, phi, budget, (cv_pos[0], cv_pos[1]))
 
 
-def whitened_rss(obs: Observations, smaller: Fit, larger: Fit) -> tuple[float, float, float]:
+def whitened_rss(obs: Observations, smaller: Fit, larger: Fit, history: tuple[serial.Ar1Estimate, ...] = ()
+                 ) -> tuple[float, float, float]:
     """(φ, RSS of ``smaller``, RSS of ``larger``) after the Prais–Winsten transform for AR(1) errors in
     time order (serial.py), φ estimated from the larger model's residual (it holds under both hypotheses:
     an effect missing from the smaller model would pass for correlation in its residual); φ = 0: the
     ordinary sums.  Both models are fitted to the same observations, so the nested comparison (F-test,
-    BIC) is the generalised least-squares one."""
+    BIC) is the generalised least-squares one.  ``history``: estimates from earlier runs, pooled with it."""
     order = serial.time_order(obs.values, obs.n)
-    phi = serial.ar1_coefficient(larger.residual[order], orthonormal_basis(larger.design)[order])
+    phi = serial.ar1_coefficient(larger.residual[order], orthonormal_basis(larger.design)[order], history,
+                                 serial.point_interval_s(obs.values.get("time_min")))
     if phi == 0.0:
         return 0.0, smaller.rss, larger.rss
     rss = [solve(serial.prais_winsten(f.design, order, phi), serial.prais_winsten(f.target, order, phi))[1]

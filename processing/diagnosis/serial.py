@@ -8,11 +8,18 @@ residual of the larger model of each test (consistent under both hypotheses), re
 fitted model leaves in the lag-1 autocorrelation of its residual by matching moments, and compares
 the nested models' residual sums of squares after the transform
 z₀ = √(1 − φ²) v₀, z_t = v_t − φ v_{t−1} (rows in time order), under which the errors are white.
+
+One run of a few hundred points fixes φ only to about √((1 − φ²)/n) (0.03 at φ 0.9, n 210), which
+moves a slow effect's test statistic by ±30 %: no test on one run both holds its false alarms and
+detects a 5-standard-error drift 9 times in 10 at φ 0.9 (docs/diagnosis.md, "Correlated noise").
+Earlier runs of the same machine fix it better: their estimates (:class:`Ar1Estimate`, converted to
+this run's point interval) are pooled with this run's (:func:`ar1_coefficient` ``history``).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import signal, stats
@@ -64,22 +71,44 @@ def expected_lag1(q: np.ndarray, phi: float) -> float:
     return num / den if den > 0 else 0.0
 
 
-def ar1_coefficient(residual_ordered: np.ndarray, basis_ordered: np.ndarray) -> float:
-    """The AR(1) coefficient of the errors behind a least-squares residual (both in time order),
-    bias-corrected: the φ whose expected residual lag-1 autocorrelation (:func:`expected_lag1`)
-    equals the observed one; clipped to [0, PHI_MAX] (a negative φ is taken as none: the tests
-    stay those for independent errors, which are then conservative), and 0 unless φ̂·√n > PHI_Z."""
-    n = len(residual_ordered)
-    if n < 8:
-        return 0.0
+@dataclass(frozen=True)
+class Ar1Estimate:
+    """The bias-corrected AR(1) coefficient of one earlier run's errors in time order."""
+
+    phi: float  # not clipped at 0 nor gated, so that pooled estimates stay unbiased
+    n: int  # points it rests on
+    interval_s: float | None  # median time between successive points (None: no time recorded)
+    source: str = ""  # the run it comes from
+
+    def at_interval(self, interval_s: float | None) -> float:
+        """φ for points ``interval_s`` apart: errors that decay as e^(−Δt/τ) have φ = e^(−Δt/τ) per point, so
+        φ' = φ^(Δt'/Δt).  Unchanged when either interval is unknown or φ ≤ 0 (no decay time to scale)."""
+        if self.phi <= 0.0 or not interval_s or not self.interval_s:
+            return self.phi
+        return min(self.phi ** (interval_s / self.interval_s), PHI_MAX)
+
+    def to_dict(self) -> dict[str, object]:
+        return {"run": self.source, "phi": self.phi, "points": self.n, "interval_s": self.interval_s}
+
+
+def point_interval_s(time_min: np.ndarray | None) -> float | None:
+    """Median time between successive points (s), from their times (min); None without times."""
+    if time_min is None or len(time_min) < 2 or not np.all(np.isfinite(time_min)):
+        return None
+    step = float(np.median(np.diff(np.sort(time_min)))) * 60.0
+    return step if step > 0 else None
+
+
+def matched_phi(residual_ordered: np.ndarray, basis_ordered: np.ndarray, low: float = -PHI_MAX) -> float:
+    """The φ whose expected residual lag-1 autocorrelation (:func:`expected_lag1`) equals the observed one,
+    within [``low``, PHI_MAX]; nan when it lies below ``low``."""
     r1 = lag1(residual_ordered)
 
     def gap(phi: float) -> float:
         return expected_lag1(basis_ordered, phi) - r1
 
-    low = PHI_Z / math.sqrt(n)  # the smallest φ̂ that is used (the expected lag-1 value grows with φ)
     if low >= PHI_MAX or gap(low) >= 0:
-        return 0.0
+        return math.nan
     # fixed point φ ← φ − gap(φ): the expectation's slope in φ is close to 1 (the bias is O(p / n)), so a few
     # steps reach 1e-3, at a fraction of a bracketing search's evaluations on a long run
     phi = min(max(r1, low), PHI_MAX)
@@ -89,6 +118,30 @@ def ar1_coefficient(residual_ordered: np.ndarray, basis_ordered: np.ndarray) -> 
         if abs(step) < 1e-3:
             break
     return phi
+
+
+def ar1_coefficient(residual_ordered: np.ndarray, basis_ordered: np.ndarray,
+                    history: tuple[Ar1Estimate, ...] = (), interval_s: float | None = None) -> float:
+    """The AR(1) coefficient of the errors behind a least-squares residual (both in time order),
+    bias-corrected (:func:`matched_phi`); clipped to [0, PHI_MAX] (a negative φ is taken as none: the tests
+    stay those for independent errors, which are then conservative), and 0 unless φ̂·√n > PHI_Z.
+
+    ``history``: estimates from earlier runs of the same machine, pooled with this run's by their points
+    (each converted to this run's point interval ``interval_s``, s); the gate then counts all their points."""
+    n = len(residual_ordered)
+    if n < 8 and not history:
+        return 0.0
+    if not history:
+        phi = matched_phi(residual_ordered, basis_ordered, low=PHI_Z / math.sqrt(n))
+        return 0.0 if math.isnan(phi) else phi
+    own = matched_phi(residual_ordered, basis_ordered) if n >= 8 else math.nan
+    pairs = [(e.at_interval(interval_s), e.n) for e in history] + ([(own, n)] if not math.isnan(own) else [])
+    pairs = [(phi, m) for phi, m in pairs if not math.isnan(phi)]
+    total = sum(m for _, m in pairs)
+    if total == 0:
+        return 0.0
+    phi = sum(phi * m for phi, m in pairs) / total
+    return min(phi, PHI_MAX) if phi * math.sqrt(total) > PHI_Z else 0.0
 
 
 def prais_winsten(v: np.ndarray, order: np.ndarray, phi: float) -> np.ndarray:

@@ -19,6 +19,8 @@ import numpy as np
 
 from processing.air_index import air_index
 from processing.decoupling import decouple, sensor_height_um
+from processing.diagnosis import serial
+from processing.diagnosis.fit import orthonormal_basis
 from processing.diagnosis.observations import Observations, positioning_observations, straightness_observations
 from processing.diagnosis.select import ChannelDiagnosis, Rule, default_rule, diagnose_channel
 from processing.effects import Effect
@@ -115,6 +117,11 @@ class Diagnosis:
             noise = ch.baseline_noise
             print(f"{o.channel} channel ({o.n} points): baseline RMS {ch.baseline.rms_um:.3f} um, max "
                   f"{ch.baseline.max_um:.3f} um; noise {noise.sigma_um:.3f} um ({noise.source})", file=stream)
+            if ch.rule.ar1_history:
+                past = ch.rule.ar1_history
+                print(f"  serial correlation: estimated from this run and {len(past)} earlier run(s) "
+                      f"({sum(e.n for e in past)} points, AR(1) coefficients "
+                      f"{', '.join(f'{e.phi:.2f}' for e in past)})", file=stream)
             for region, info in ch.disagreement.items():
                 if isinstance(info, dict) and info.get("stand_out"):
                     worst = ", ".join(f"{g['group']} {g['mean_um']:+.3f} um (z {g['z']:+.1f})"
@@ -264,11 +271,14 @@ def _straightness(run: LoadedRun, reference: bool) -> tuple[Observations, Observ
 
 
 def diagnose_run(run_dir: Path | str, model: EffectModel | Path | str | None = None,
-                 rule: Rule | None = None, *, accept_out_of_range: bool = False) -> Diagnosis:
+                 rule: Rule | None = None, *, accept_out_of_range: bool = False,
+                 noise_from: tuple[Path | str, ...] | list[Path | str] = ()) -> Diagnosis:
     """Diagnose the run in ``run_dir`` against ``model`` (a model file, a loaded model, or None: nothing known).
 
     Values outside the set-up's validation limits are refused as ``process`` refuses them
-    (saved_runs.evaluation.limits) unless ``accept_out_of_range``; accepted ones are listed in the notes."""
+    (saved_runs.evaluation.limits) unless ``accept_out_of_range``; accepted ones are listed in the notes.
+    ``noise_from``: earlier runs of the same machine and axis whose errors' AR(1) coefficient is pooled
+    with this run's (:func:`noise_history`)."""
     run = load_run(run_dir)
     accepted = out_of_range(run, accept=accept_out_of_range) if len(run.points) else ()
     if model is None:
@@ -278,6 +288,8 @@ def diagnose_run(run_dir: Path | str, model: EffectModel | Path | str | None = N
     if model.kind != run.kind:
         raise UserError(f"{model.source} is a {model.kind} model; {run.path} is a {run.kind} run")
     channels, notes = [], [f"accepted outside the set-up's limits: {a.text()}" for a in accepted]
+    history, history_notes = noise_history(run, model, noise_from, accept_out_of_range=accept_out_of_range)
+    notes += history_notes
     observed = run_observations(run, model)
     usable = [obs for obs in observed if obs.n >= 3]
     rule = replace(rule or default_rule(run.kind), channels=len(usable))  # alpha is shared by the channels
@@ -287,12 +299,51 @@ def diagnose_run(run_dir: Path | str, model: EffectModel | Path | str | None = N
         if obs.n < 3:
             continue
         try:
-            channels.append(diagnose_channel(obs, effects, rule))
+            channels.append(diagnose_channel(obs, effects, replace(rule, ar1_history=history.get(obs.channel, ()))))
         except ValueError as exc:
             raise UserError(f"{run.path}: {obs.channel} channel: {exc}") from None
     if not channels:
         raise RunFormatError(f"{run.path}: no channel holds enough points to diagnose")
     return Diagnosis(run, model, tuple(channels), tuple(notes))
+
+
+def noise_history(run: LoadedRun, model: EffectModel, earlier: tuple[Path | str, ...] | list[Path | str],
+                  *, accept_out_of_range: bool = False) -> tuple[dict[str, tuple[serial.Ar1Estimate, ...]], list[str]]:
+    """The AR(1) coefficient of every channel's errors in each ``earlier`` run: each is diagnosed against
+    ``model`` on its own, and φ is estimated from the residual of its final model (an effect it holds is then
+    in that model, not taken for correlation).  Returns the estimates per channel and notes (another machine or
+    axis, no time recorded).  A run of another kind, or the run itself, is refused."""
+    history: dict[str, list[serial.Ar1Estimate]] = {}
+    notes: list[str] = []
+    seen = {run.path.resolve()}
+    for path in earlier:
+        other = load_run(path)
+        where = other.path.resolve()
+        if where in seen:
+            what = "the run being diagnosed" if where == run.path.resolve() else "named twice"
+            raise UserError(f"--noise-from {path}: {what}; give other, earlier runs of the same machine and axis")
+        seen.add(where)
+        if other.kind != run.kind:
+            raise UserError(f"--noise-from {path}: a {other.kind} run; {run.path} is a {run.kind} run "
+                            "(give earlier runs of the same kind, machine and axis)")
+        for key in ("machine", "axis"):
+            mine, theirs = run.meta.get(key), other.meta.get(key)
+            if mine and theirs and mine != theirs:
+                notes.append(f"noise history: {other.path} is of {key} {theirs!r}, this run of {mine!r}")
+        past = diagnose_run(other.path, model, accept_out_of_range=accept_out_of_range)
+        for ch in past.channels:
+            order = serial.time_order(ch.obs.values, ch.obs.n)
+            if ch.obs.n < 8:
+                continue
+            interval = serial.point_interval_s(ch.obs.values.get("time_min"))
+            if interval is None:
+                notes.append(f"noise history: {other.path} records no time; its points are taken as evenly spaced "
+                             "as this run's")
+            phi = serial.matched_phi(ch.final.residual[order], orthonormal_basis(ch.final.design)[order])
+            if not math.isnan(phi):
+                history.setdefault(ch.obs.channel, []).append(
+                    serial.Ar1Estimate(phi, ch.obs.n, interval, str(other.path)))
+    return {k: tuple(v) for k, v in history.items()}, notes
 
 
 def write_model(diagnosis: Diagnosis, path: Path | str) -> Path:

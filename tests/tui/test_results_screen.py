@@ -392,3 +392,20 @@ def test_the_diagnosis_view_reads_the_json_defensively() -> None:
     assert "ambiguous, cannot be told apart on this run: abbe / linear_scale" in table
     assert [(b.label, b.value) for b in groups[0].bars] == [("baseline", 2.0), ("+ abbe", 0.0), ("final", 0.0)]
     assert groups[0].reference == 0.5
+
+
+def test_the_diagnosis_view_says_what_remains_instead_of_nothing_missing() -> None:
+    # issue 19, item 3: "nothing missing" only when the final residual is white; the TUI said it whenever no
+    # step was added, even with the JSON's remains saying the residual is correlated in time
+    from tui.screens.diagnosis import diagnosis_view
+
+    said = "the residual is correlated in time order (AR(1) coefficient 0.83, ...)"
+    channel = {"points": 210, "baseline": {"rms_um": 0.19, "max_um": 0.6}, "final": {"rms_um": 0.19, "max_um": 0.6},
+               "noise_um": 0.2, "named": []}
+    white = {"channel": "deviation", "named": [], "steps": [], "channels": {"deviation": {**channel, "remains": []}}}
+    wander = {**white, "channels": {"deviation": {**channel, "remains": [said]}}}
+    assert "nothing significant is missing from the model" in diagnosis_view(white)[0]
+    table = diagnosis_view(wander)[0]
+    assert "nothing significant is missing" not in table
+    assert "no effect of the library is significant, but the residual is not white" in table
+    assert f"remains: {said}" in table

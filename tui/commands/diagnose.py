@@ -1,5 +1,6 @@
-"""``guideway diagnose RUN_DIR --model MODEL.toml [--json] [--report FILE] [--out MODEL_OUT.toml]``:
-find the physical effect the model lacks, add it and show the gap shrink."""
+"""``guideway diagnose RUN_DIR --model MODEL.toml [--noise-from RUN ... | --noise-history N [--catalog URL]]
+[--json] [--report FILE] [--out MODEL_OUT.toml]``: find the physical effect the model lacks, add it and show
+the gap shrink."""
 
 from __future__ import annotations
 
@@ -9,7 +10,22 @@ import os
 import sys
 from pathlib import Path
 
+from .catalog import add_catalog_option
 from .process import warn_about_run
+
+
+def earlier_runs(args: argparse.Namespace) -> list[Path]:
+    """The runs whose errors' serial correlation is pooled with the run's: ``--noise-from``, or the
+    ``--noise-history`` latest earlier runs of the machine and axis in the catalogue (said on stderr)."""
+    if args.noise_history is None:
+        return list(args.noise_from)
+    from fleet.catalog.database import open_catalog
+    from fleet.catalog.history import earlier_runs as catalogued
+
+    with open_catalog(args.catalog, create=False) as cat:
+        history = catalogued(cat, args.run_dir, args.noise_history)
+    print(f"noise history: {history.note}", file=sys.stderr)
+    return list(history.runs)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -22,7 +38,8 @@ def run(args: argparse.Namespace) -> int:
     from saved_runs.store.reader import load_run
 
     warn_about_run(load_run(args.run_dir), "diagnosing the")
-    diagnosis = diagnose_run(args.run_dir, args.model, accept_out_of_range=args.accept_out_of_range)
+    diagnosis = diagnose_run(args.run_dir, args.model, accept_out_of_range=args.accept_out_of_range,
+                             noise_from=earlier_runs(args))
     written = []
     if args.report is not None:
         from saved_runs.diagnosis.report import write_diagnosis_report
@@ -50,6 +67,14 @@ def register(sub) -> None:  # noqa: ANN001
     p.add_argument("run_dir", type=Path)
     p.add_argument("--model", type=Path, default=None,
                    help="model file (TOML; kind and [[effect]] tables); default: an empty model")
+    history = p.add_mutually_exclusive_group()
+    history.add_argument("--noise-from", nargs="+", type=Path, default=[], metavar="RUN",
+                         help="earlier runs of the same machine and axis: the serial correlation of the errors is "
+                              "estimated from them with this run (docs/diagnosis.md, 'Correlated noise')")
+    history.add_argument("--noise-history", type=int, default=None, metavar="N",
+                         help="as --noise-from, with the N latest earlier runs of the run's machine and axis in "
+                              "the catalogue")
+    add_catalog_option(p)
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--accept-out-of-range", action="store_true",
                    help="use values outside the set-up's validation limits instead of refusing the run (as process)")

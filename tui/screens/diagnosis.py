@@ -1,6 +1,8 @@
 """The diagnosis of a run (``d`` on the Results screen): ``guideway diagnose`` against a model file, shown
 as the steps (baseline → each effect added → final) in a table and as bars of the residual RMS, so the
-gap is seen shrinking to the noise; ambiguous pairs are shown as such (docs/diagnosis.md)."""
+gap is seen shrinking to the noise; ambiguous pairs are shown as such (docs/diagnosis.md).  With a catalogue
+(``--catalog`` / ``GUIDEWAY_CATALOG``) the serial correlation of the errors is estimated from the machine's
+latest earlier runs as well (``guideway diagnose --noise-history``); ``h`` switches that off and on."""
 
 from __future__ import annotations
 
@@ -17,10 +19,12 @@ from textual.screen import Screen
 from textual.widgets import Footer, Header, Input, Label, Static
 from textual.worker import get_current_worker
 
+from fleet.catalog.config import configured_url
 from saved_runs.errors import EXPECTED_ERRORS
 
 from ..widgets.bars import Bar, BarGroup, Bars
 
+HISTORY_RUNS = 4  # earlier runs of the machine: the benchmark's figure (docs/diagnosis.md)
 STEP_HEAD = f"{'step':<6}{'effect':<16}{'RMS um':>8}{'max um':>8}{'ΔBIC':>8}{'p':>9}  result"
 
 
@@ -105,12 +109,22 @@ def diagnosis_view(d: dict[str, Any]) -> tuple[str, list[BarGroup]]:
                 lines.append(f"[dim]{'':<6}{escape(detail)}[/dim]")
             bars.append(Bar(f"+ {label}", _value(s.get("rms_um")),
                             "yellow" if s.get("ambiguous_with") else "cyan"))
-        if not mine:
+        left = [str(sentence) for sentence in ch.get("remains") or []]  # what the final residual still holds
+        if not mine and not left:
             lines.append(f"{'':<6}[green]nothing significant is missing from the model[/green]")
+        elif not mine:
+            lines.append(f"{'':<6}[yellow]no effect of the library is significant, but the residual is not "
+                         "white[/yellow]")
         lines.append(f"{'final':<22}{_f(final.get('rms_um'), '8.3f')}{_f(final.get('max_um'), '8.3f')}")
+        lines += [f"[yellow]remains: {escape(sentence)}[/yellow]" for sentence in left]
         bars.append(Bar("final", _value(final.get("rms_um")), "green"))
         groups.append(BarGroup(f"{name}: residual RMS um", bars, noise if isinstance(noise, int | float) else None,
                                f"noise {_f(noise, '.3f')} um"))
+    history = (d.get("rule") or {}).get("ar1_history") or []
+    if history:
+        points = sum(int(h.get("points") or 0) for h in history)
+        lines.append(f"serial correlation: from this run and {len(history)} earlier run(s) of the machine "
+                     f"({points} points)")
     named_all = d.get("named") or []
     lines.append(f"named: [b]{escape(', '.join(map(str, named_all)) or 'none')}[/b]")
     pairs = [" / ".join(map(str, group)) for group in d.get("ambiguous") or []]
@@ -129,8 +143,8 @@ class DiagnosisScreen(Screen):
     AUTO_FOCUS = ""  # nothing: the keys (m, Enter, Escape, q) answer until the model field is chosen with m
     HORIZONTAL_BREAKPOINTS = [(0, "-narrow"), (140, "-wide")]
     BINDINGS = [Binding("m", "edit_model", "model file"), Binding("enter", "diagnose", "diagnose"),
-                Binding("escape", "back", "results"), Binding("f3", "app.runs", "runs"),
-                Binding("f2", "app.setup", "set-up")]
+                Binding("h", "history", "history"), Binding("escape", "back", "results"),
+                Binding("f3", "app.runs", "runs"), Binding("f2", "app.setup", "set-up")]
 
     def __init__(self, run_dir: Path, model_path: str = "") -> None:
         super().__init__()
@@ -139,6 +153,14 @@ class DiagnosisScreen(Screen):
         self.result: dict[str, Any] | None = None
         self.error = ""
         self.running = False
+        self.use_history = True  # with a catalogue: the machine's earlier runs (h)
+
+    @property
+    def catalog_url(self) -> str | None:
+        return configured_url(getattr(self.app, "catalog_url", None))
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        return self.catalog_url is not None if action == "history" else True
 
     def compose(self) -> ComposeResult:
         yield Header()
@@ -169,6 +191,10 @@ class DiagnosisScreen(Screen):
             return
         self.app.pop_screen()
 
+    def action_history(self) -> None:
+        self.use_history = not self.use_history
+        self.action_diagnose()
+
     def on_input_submitted(self, event: Input.Submitted) -> None:
         event.stop()
         self.set_focus(None)
@@ -184,15 +210,17 @@ class DiagnosisScreen(Screen):
         self.running = True
         self.error = ""
         self.status(f"[yellow]diagnosing against {escape(path or 'no model (nothing known)')}…[/yellow]")
-        self._diagnose(path or None)
+        self._diagnose(path or None, self.catalog_url, self.use_history)
 
     @work(thread=True, exclusive=True, group="diagnose", exit_on_error=False)
-    def _diagnose(self, model: str | None) -> None:
+    def _diagnose(self, model: str | None, catalog_url: str | None, use_history: bool) -> None:
         worker = get_current_worker()
         try:
             from saved_runs.diagnosis.diagnose import diagnose_run  # seconds to load: in the worker, not the UI
 
-            result = diagnose_run(self.run_dir, model).to_dict()
+            earlier, note = self._history(catalog_url, use_history)
+            result = diagnose_run(self.run_dir, model, noise_from=earlier).to_dict()
+            result["notes"] = [*result.get("notes", []), *([note] if note else [])]
         except EXPECTED_ERRORS as exc:
             message = str(exc)
         except Exception as exc:  # noqa: BLE001 - shown as one line: the screen stays usable
@@ -203,6 +231,23 @@ class DiagnosisScreen(Screen):
             return
         if not worker.is_cancelled:
             self.app.call_from_thread(self.show_error, message)
+
+    def _history(self, catalog_url: str | None, use: bool) -> tuple[list[Path], str]:
+        """The machine's earlier runs in the catalogue (none without one, or with ``h`` off) and a note of what
+        was found; a catalogue that cannot be read, or a run it cannot place, is said: the run alone is used."""
+        if catalog_url is None:
+            return [], ""
+        if not use:
+            return [], "noise history: off, the run's own estimate (h: the machine's earlier runs)"
+        from fleet.catalog.database import open_catalog
+        from fleet.catalog.history import earlier_runs
+
+        try:
+            with open_catalog(catalog_url, create=False) as cat:
+                history = earlier_runs(cat, self.run_dir, HISTORY_RUNS)
+        except EXPECTED_ERRORS as exc:
+            return [], f"noise history: none ({exc})"
+        return list(history.runs), f"noise history: {history.note}" + ("; h: this run alone" if history.runs else "")
 
     def status(self, text: str) -> None:
         """The status line under the table: what runs, or the one-line error; hidden when there is nothing."""
