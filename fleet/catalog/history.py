@@ -1,7 +1,7 @@
 """A run's history in the catalogue: the earlier runs of the same machine, axis and kind.
 
 ``guideway diagnose RUN --noise-history N`` estimates the serial correlation of the machine's errors
-from them as well as from RUN (docs/diagnosis.md, "Correlated noise"): one run of a few hundred
+from them as well as from RUN (docs/diagnosis.md, "Under correlated noise"): one run of a few hundred
 points fixes it too loosely for the tests of a slow effect.
 """
 

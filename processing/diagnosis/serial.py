@@ -10,8 +10,9 @@ the nested models' residual sums of squares after the transform
 z₀ = √(1 − φ²) v₀, z_t = v_t − φ v_{t−1} (rows in time order), under which the errors are white.
 
 One run of a few hundred points fixes φ only to about √((1 − φ²)/n) (0.03 at φ 0.9, n 210), which
-moves a slow effect's test statistic by ±30 %: no test on one run both holds its false alarms and
-detects a 5-standard-error drift 9 times in 10 at φ 0.9 (docs/diagnosis.md, "Correlated noise").
+moves a slow effect's test statistic by ±30 %: no test on one run both holds its false alarms on every
+machine with φ up to 0.98 and detects a 5-standard-error drift 9 times in 10 at φ 0.9 (a Neyman–Pearson
+bound, docs/diagnosis.md, "Under correlated noise").
 Earlier runs of the same machine fix it better: their estimates (:class:`Ar1Estimate`, converted to
 this run's point interval) are pooled with this run's (:func:`ar1_coefficient` ``history``).
 """

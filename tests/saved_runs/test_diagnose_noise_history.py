@@ -1,7 +1,7 @@
 """The serial correlation of a machine's errors from its earlier runs (issue 19, item 1).
 
 One run of 210 points fixes the AR(1) coefficient φ only to about ±0.03 at φ 0.9, which moves a slow
-effect's test statistic by ±30 % (docs/diagnosis.md, "Correlated noise"); ``guideway diagnose RUN
+effect's test statistic by ±30 % (docs/diagnosis.md, "Under correlated noise"); ``guideway diagnose RUN
 --noise-from EARLIER...`` pools the estimates of earlier runs of the same machine with the run's own.
 
 The AR(1) series are generated here (e_t = φ e_{t−1} + w_t, marginal σ stated); the decay of a
@@ -89,7 +89,7 @@ def machine_runs(tmp_path: Path, seed: int, phi: float, drift_um_per_min: float 
 def test_with_four_earlier_runs_a_5_se_drift_at_phi_09_is_named_and_null_runs_stay_quiet(tmp_path: Path) -> None:
     """φ 0.9, σ 0.2 µm: a thermal drift of 5 GLS standard errors (computed here under the true noise) is named
     in at least 18 of 20 runs when φ comes from four earlier runs and the run (benchmark: 0.97; from the run
-    alone 0.82, and no test on one run can reach 0.9 while holding its false alarms, docs/diagnosis.md), and
+    alone 0.82; no test on one run reaches 0.9 while holding its false alarms up to φ 0.98, docs/diagnosis.md), and
     at most one of 20 null runs names anything (benchmark: under 1 in 100)."""
     rows = linear_cycle(TARGETS_MM, 5)
     t = np.array([r["time_s"] for r in rows]) / 60.0

@@ -70,7 +70,8 @@ def register(sub) -> None:  # noqa: ANN001
     history = p.add_mutually_exclusive_group()
     history.add_argument("--noise-from", nargs="+", type=Path, default=[], metavar="RUN",
                          help="earlier runs of the same machine and axis: the serial correlation of the errors is "
-                              "estimated from them with this run (docs/diagnosis.md, 'Correlated noise')")
+                              "estimated from them with this run (docs/diagnosis.md, 'φ from the machine's "
+                              "earlier runs')")
     history.add_argument("--noise-history", type=int, default=None, metavar="N",
                          help="as --noise-from, with the N latest earlier runs of the run's machine and axis in "
                               "the catalogue")
