@@ -128,3 +128,14 @@ def test_diagnose_noise_from_on_the_command_line(tmp_path: Path) -> None:
                       (straightness, "a straightness run"), (tmp_path / "nothing", "nothing")):
         args = [str(earlier[0]), str(bad)] if bad == earlier[0] else [str(bad)]
         one_line_error(guideway("diagnose", str(run), "--noise-from", *args), says)
+
+
+def test_a_strong_correlation_from_one_run_is_said_with_its_remedy(tmp_path: Path) -> None:
+    """φ 0.9 from the run alone: a note says the slow effects' tests are less reliable and names --noise-from /
+    --noise-history; not with the earlier runs given, nor at φ 0.3 (below the 0.8 it is said from)."""
+    run, earlier = machine_runs(tmp_path, 7, 0.9)
+    said = [n for n in diagnose_run(run).notes if "strongly correlated in time" in n]
+    assert len(said) == 1 and "--noise-history N" in said[0] and "from this run alone" in said[0]
+    assert not [n for n in diagnose_run(run, noise_from=earlier).notes if "strongly correlated" in n]
+    weak, _ = machine_runs(tmp_path, 8, 0.3)
+    assert not [n for n in diagnose_run(weak).notes if "strongly correlated" in n]
