@@ -346,14 +346,14 @@ def noise_history(run: LoadedRun, model: EffectModel, earlier: tuple[Path | str,
             raise UserError(f"--noise-from {path}: a {other.kind} run; {run.path} is a {run.kind} run "
                             "(give earlier runs of the same kind, machine and axis)")
         for key in ("machine", "axis"):
-            mine, theirs = run.meta.get(key), other.meta.get(key)
+            mine, theirs = _identity(run.meta, key), _identity(other.meta, key)
             if mine and theirs and mine != theirs:
                 notes.append(f"noise history: {other.path} is of {key} {theirs!r}, this run of {mine!r}")
         past = diagnose_run(other.path, model, accept_out_of_range=accept_out_of_range)
         for ch in past.channels:
-            order = serial.time_order(ch.obs.values, ch.obs.n)
             if ch.obs.n < 8:
                 continue
+            order = serial.time_order(ch.obs.values, ch.obs.n)
             interval = serial.point_interval_s(ch.obs.values.get("time_min"))
             if interval is None:
                 notes.append(f"noise history: {other.path} records no time; its points are taken as evenly spaced "
@@ -363,6 +363,12 @@ def noise_history(run: LoadedRun, model: EffectModel, earlier: tuple[Path | str,
                 history.setdefault(ch.obs.channel, []).append(
                     serial.Ar1Estimate(phi, ch.obs.n, interval, str(other.path)))
     return {k: tuple(v) for k, v in history.items()}, notes
+
+
+def _identity(meta: dict[str, Any], key: str) -> str:
+    """run.json's machine or axis (a positioning run's axis may be only its set-up's axis name)."""
+    value = meta.get(key) or (((meta.get("setup") or {}).get("axis_name")) if key == "axis" else None)
+    return str(value or "")
 
 
 def write_model(diagnosis: Diagnosis, path: Path | str) -> Path:

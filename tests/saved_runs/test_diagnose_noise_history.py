@@ -139,3 +139,15 @@ def test_a_strong_correlation_from_one_run_is_said_with_its_remedy(tmp_path: Pat
     assert not [n for n in diagnose_run(run, noise_from=earlier).notes if "strongly correlated" in n]
     weak, _ = machine_runs(tmp_path, 8, 0.3)
     assert not [n for n in diagnose_run(weak).notes if "strongly correlated" in n]
+
+
+def test_an_earlier_run_of_another_axis_is_used_with_a_note(tmp_path: Path) -> None:
+    """An earlier run whose set-up names another axis (Y, this run X) is pooled, and the notes say so."""
+    run, earlier = machine_runs(tmp_path, 9, 0.7)
+    meta = json.loads((earlier[0] / "run.json").read_text())
+    meta["setup"]["axis_name"] = "Y"
+    (earlier[0] / "run.json").write_text(json.dumps(meta))
+    d = diagnose_run(run, noise_from=earlier[:2])
+    assert len(d.primary.rule.ar1_history) == 2
+    assert [n for n in d.notes if n.startswith("noise history:")] == [
+        f"noise history: {earlier[0]} is of axis 'Y', this run of 'X'"]
