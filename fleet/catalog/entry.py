@@ -25,7 +25,7 @@ from typing import Any
 
 from saved_runs.errors import UserError
 from saved_runs.evaluation.tolerance import POSITIONING_QUANTITIES, REFERENCE_LINES
-from saved_runs.store.format import FORMAT
+from saved_runs.store.format import FORMAT, run_axis
 
 HASHED_FILES = ("run.json", "points.csv")
 
@@ -198,6 +198,5 @@ def make_entry(files: RunFiles) -> Entry:
 
 def identity(meta: dict[str, Any]) -> dict[str, str]:
     """What an entry holds of run.json besides its uid: machine, axis, kind, created (UTC) and status."""
-    axis = meta.get("axis") or (meta.get("setup") or {}).get("axis_name") or ""
-    return {"machine": str(meta.get("machine") or ""), "axis": str(axis), "kind": str(meta.get("kind") or ""),
+    return {"machine": str(meta.get("machine") or ""), "axis": run_axis(meta), "kind": str(meta.get("kind") or ""),
             "created": utc_created(str(meta.get("created") or "")), "status": str(meta.get("status") or "")}

@@ -22,8 +22,6 @@ class History:
     """The earlier runs found for a run (newest first), and what the search said."""
 
     runs: tuple[Path, ...]
-    machine: str
-    axis: str
     note: str  # one line: what was found, or why fewer than asked
 
 
@@ -52,4 +50,4 @@ def earlier_runs(cat: Catalog, run_dir: Path | str, count: int) -> History:
     else:
         note = (f"{len(found)} earlier run(s) of {what} from the catalogue {cat.url}"
                 + (f" (asked for {count})" if len(found) < count else ""))
-    return History(tuple(found), me["machine"], me["axis"], note)
+    return History(tuple(found), note)

@@ -13,12 +13,13 @@ from typing import Any
 
 from saved_runs.errors import UserError
 from saved_runs.report.common import simulated
+from saved_runs.store.format import run_axis
 from saved_runs.store.reader import LoadedRun
 
 
 def axis_name(meta: dict[str, Any]) -> str:
-    """The axis a run names (run.json ``axis``, else the positioning set-up's ``axis_name``), or ""."""
-    return str(meta.get("axis") or (meta.get("setup") or {}).get("axis_name") or "").strip()
+    """The axis a run names (:func:`saved_runs.store.format.run_axis`), blanks stripped: compared, not stored."""
+    return run_axis(meta).strip()
 
 
 def check_comparable(run_a: LoadedRun, run_b: LoadedRun, *, any_axis: bool = False) -> list[str]:

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..store.format import FORMAT  # the format's names only: the run browser's first paint loads no pandas
+from ..store.format import FORMAT, run_axis  # the format's names only: the run browser's first paint loads no pandas
 
 DAMAGED = "damaged"
 
@@ -124,7 +124,7 @@ def _summary(run_dir: Path) -> RunSummary:
         return RunSummary(run_dir, status=DAMAGED, problem=f"run.json unreadable ({exc.__class__.__name__})")
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         return RunSummary(run_dir, status=DAMAGED, problem="not a guideway run")
-    axis = meta.get("axis") or (meta.get("setup") or {}).get("axis_name") or ""
+    axis = run_axis(meta)
     points, damage = points_on_disk(run_dir / "points.csv")
     status = str(meta.get("status", ""))
     recorded = meta.get("points")

@@ -32,6 +32,7 @@ from ..evaluation.limits import out_of_range
 from ..evaluation.positioning import positioning_deviations
 from ..evaluation.straightness import check_finite, run_geometry
 from ..store.files import write_text_atomic
+from ..store.format import run_axis
 from ..store.reader import LoadedRun, load_run
 from .model_file import EffectModel, commented_effect, empty_model, load_model, model_toml
 from .remains import not_named_because, remains
@@ -345,8 +346,8 @@ def noise_history(run: LoadedRun, model: EffectModel, earlier: tuple[Path | str,
         if other.kind != run.kind:
             raise UserError(f"--noise-from {path}: a {other.kind} run; {run.path} is a {run.kind} run "
                             "(give earlier runs of the same kind, machine and axis)")
-        for key in ("machine", "axis"):
-            mine, theirs = _identity(run.meta, key), _identity(other.meta, key)
+        for key, mine, theirs in (("machine", str(run.meta.get("machine") or ""), str(other.meta.get("machine") or "")),
+                                  ("axis", run_axis(run.meta), run_axis(other.meta))):
             if mine and theirs and mine != theirs:
                 notes.append(f"noise history: {other.path} is of {key} {theirs!r}, this run of {mine!r}")
         past = diagnose_run(other.path, model, accept_out_of_range=accept_out_of_range)
@@ -363,12 +364,6 @@ def noise_history(run: LoadedRun, model: EffectModel, earlier: tuple[Path | str,
                 history.setdefault(ch.obs.channel, []).append(
                     serial.Ar1Estimate(phi, ch.obs.n, interval, str(other.path)))
     return {k: tuple(v) for k, v in history.items()}, notes
-
-
-def _identity(meta: dict[str, Any], key: str) -> str:
-    """run.json's machine or axis (a positioning run's axis may be only its set-up's axis name)."""
-    value = meta.get(key) or (((meta.get("setup") or {}).get("axis_name")) if key == "axis" else None)
-    return str(value or "")
 
 
 def write_model(diagnosis: Diagnosis, path: Path | str) -> Path:

@@ -14,6 +14,7 @@ from typing import Any
 
 from ..errors import RunFormatError
 from ..evaluation.evaluate import evaluate_run
+from ..store.format import run_axis
 from ..store.reader import LoadedRun, load_run
 from .common import (
     conventions_section,
@@ -68,7 +69,7 @@ def render_report(run: LoadedRun, evaluation: Any, *, not_evaluated: str | None 
     from .straightness import straightness_headline, straightness_sections
 
     m = run.meta
-    axis = m.get("axis") or (m.get("setup") or {}).get("axis_name") or ""
+    axis = run_axis(m)
     title = f"guideway {run.kind} report — {m.get('machine') or 'machine'}" + (f", axis {axis}" if axis else "")
     page = HtmlPage(title)
     simulated_banner(page, run)

@@ -48,6 +48,11 @@ def format_cell(value: Any) -> str:
     return str(value)
 
 
+def run_axis(meta: dict[str, Any]) -> str:
+    """The axis a run names: run.json ``axis``, else its positioning set-up's ``axis_name``; "" when neither."""
+    return str(meta.get("axis") or (meta.get("setup") or {}).get("axis_name") or "")
+
+
 def utc_now_iso() -> str:
     """Now, as run.json and the writer lock record times: ``2026-11-26T20:11:47Z`` (UTC, seconds)."""
     return datetime.now(UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
