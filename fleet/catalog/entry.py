@@ -10,7 +10,8 @@ Headline values (``values``), each ``{"value_um": v, "u_um": u}`` with ``u`` the
 * straightness: ``endpoint``, ``least_squares``, ``minimum_zone`` (straightness against each reference
   line; u = the Monte Carlo expanded uncertainty U divided by its k);
 * positioning: the ISO 230-2 values ``A``, ``A_up``, ``A_down``, ``E``, ``E_up``, ``E_down``, ``M``, ``R``,
-  ``R_up``, ``R_down``, ``B`` (their uncertainty is not evaluated: u None).
+  ``R_up``, ``R_down``, ``B`` (a magnitude, the largest |B_i|) and ``B_mean`` (the signed mean reversal, for
+  a trend that sees its sign change); their uncertainty is not evaluated: u None.
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ from saved_runs.evaluation.tolerance import POSITIONING_QUANTITIES, REFERENCE_LI
 from saved_runs.store.format import FORMAT, run_axis
 
 HASHED_FILES = ("run.json", "points.csv")
+# Headline values with a sign, catalogued for their trend; no [tolerance] key names them (B_um bounds |B_i|).
+SIGNED_QUANTITIES = ("B_mean",)
 
 
 class RunUnreadable(UserError):
@@ -143,7 +146,7 @@ def headline_values(summary: dict[str, Any], meta: dict[str, Any]) -> dict[str, 
     elif summary.get("kind") == "positioning":
         unit = "arcsec" if summary.get("unit") == "arcsec" else "um"
         iso = summary.get("iso230_2") or {}
-        for q in POSITIONING_QUANTITIES:
+        for q in (*POSITIONING_QUANTITIES, *SIGNED_QUANTITIES):
             value = _number(iso.get(q))
             if value is None:
                 continue
