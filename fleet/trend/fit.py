@@ -1,6 +1,7 @@
 """The trend of one headline value over the runs of a machine axis: weighted least-squares straight line
-against time, its slope in µm per year, the date the line reaches a limit, and the steps between
-consecutive runs (docs/fleet.md gives the formulas).
+against time, its slope in µm per year, the date the line reaches a limit, whether the axis is beyond
+the limit already, and the steps (jumps against the trend) between runs (docs/fleet.md gives the formulas
+and the rules).
 
 Pure arithmetic on a few thousand numbers: no NumPy, so a trend answers as fast as the catalogue does.
 """
@@ -14,13 +15,23 @@ from typing import Any
 
 DAYS_PER_YEAR = 365.25  # the Julian year
 SECONDS_PER_YEAR = DAYS_PER_YEAR * 86400.0
-STEP_K = 2.0  # a step is flagged when |change| exceeds k times the combined standard uncertainty
+# A step is a run whose value departs from the line of the runs before it (since the last step) by more than
+# k times the combined standard uncertainty of the value and of the prediction. k = 3: a steady axis whose
+# runs scatter as their u says flags a false step in 0.27 % of its runs (two-sided normal tail, erfc(3/√2)).
+STEP_K = 3.0
+# A crossing date needs at least this many runs (two runs fix a line but not its scatter) ...
+MIN_RUNS_FOR_DATE = 3
+# ... spanning at least this many days: runs within a month tell day-to-day set-up variation, not wear.
+MIN_SPAN_DAYS = 30.0
+# Values with a sign (the mean reversal B_mean drifts from + to −); the limit then bounds |value|. Every other
+# headline value is a magnitude, "larger is worse" (B is the largest |B_i|: a sign change shows as a V).
+SIGNED_VALUES = frozenset({"B_mean"})
 
 
 @dataclass(frozen=True)
 class TrendPoint:
     """One run's value: ``date`` (run.json ``created``), ``value_um`` and its standard uncertainty
-    ``u_um`` (None: not evaluated)."""
+    ``u_um`` (None: not evaluated); ``path`` is the run directory (its name is the run's name)."""
 
     run: str
     date: str
@@ -28,8 +39,13 @@ class TrendPoint:
     u_um: float | None
     path: str = ""
 
+    @property
+    def name(self) -> str:
+        """The run's name: its directory's name (the uid when the path is unknown)."""
+        return self.path.replace("\\", "/").rstrip("/").rsplit("/", 1)[-1] or self.run
+
     def to_dict(self) -> dict[str, Any]:
-        return {"run": self.run, "date": self.date, "value_um": self.value_um, "u_um": self.u_um}
+        return {"run": self.run, "name": self.name, "date": self.date, "value_um": self.value_um, "u_um": self.u_um}
 
 
 def parse_date(text: str) -> datetime:
@@ -44,23 +60,30 @@ def _iso(when: datetime) -> str:
 
 @dataclass(frozen=True)
 class Step:
-    """A change between consecutive runs larger than ``STEP_K`` times their combined standard uncertainty."""
+    """A run (``to_run``) whose value departs from the line of the runs before it, since the last step and up
+    to ``from_run``, by ``change_um`` = value − ``expected_um``, more than ``STEP_K`` times ``u_um`` =
+    √(u² of the value + u² of the prediction)."""
 
     from_run: str
     to_run: str
     date: str
     change_um: float
     u_um: float
+    expected_um: float = math.nan
+    to_name: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         return {"from_run": self.from_run, "to_run": self.to_run, "date": self.date, "change_um": self.change_um,
-                "u_um": self.u_um, "k": STEP_K}
+                "u_um": self.u_um, "k": STEP_K, "expected_um": self.expected_um, "to_name": self.to_name}
 
 
 @dataclass(frozen=True)
 class Trend:
     """The fit: ``value(t) = intercept_um + slope_um_per_year * (t - t0)`` with t in years of 365.25 days
-    from ``t0`` (the first run); uncertainties are standard (k = 1)."""
+    from ``t0`` (the first run); uncertainties are standard (k = 1), scaled by ``u_scale`` = √(χ²/dof) when
+    the runs scatter more than their stated uncertainties.  ``beyond_limit``: the newest run's value (its
+    magnitude for a signed value) exceeds the limit; ``beyond_since`` is the first run of the unbroken
+    stretch of runs beyond it that ends with the newest."""
 
     points: list[TrendPoint]
     slope_um_per_year: float | None = None
@@ -74,6 +97,11 @@ class Trend:
     crossing_note: str = ""
     steps: list[Step] = field(default_factory=list)
     chi2_per_dof: float | None = None
+    u_scale: float | None = None
+    signed: bool = False
+    beyond_limit: bool = False
+    beyond_since: TrendPoint | None = None
+    beyond_count: int = 0
 
     def line_um(self, when: datetime) -> float | None:
         """The fitted line's value at ``when``."""
@@ -105,22 +133,40 @@ def weighted_line(t: list[float], y: list[float], u: list[float]) -> tuple[float
     return a, b, var_a, var_b, cov_ab
 
 
-def fit_trend(points: list[TrendPoint], limit_um: float | None = None) -> Trend:
+def beyond(points: list[TrendPoint], limit_um: float | None, signed: bool = False) -> tuple[TrendPoint | None, int]:
+    """The first run of the unbroken stretch of runs (oldest first) beyond ``limit_um`` that ends with the
+    newest run, and how many runs it holds; (None, 0) when the newest run is within the limit."""
+    if limit_um is None:
+        return None, 0
+    n = 0
+    for p in reversed(points):
+        if (abs(p.value_um) if signed else p.value_um) <= limit_um:
+            break
+        n += 1
+    return (points[-n], n) if n else (None, 0)
+
+
+def fit_trend(points: list[TrendPoint], limit_um: float | None = None, signed: bool = False) -> Trend:
     """The trend of ``points`` (any order; sorted oldest first).
 
     With every point's uncertainty known, the weights are 1/u² and the slope's uncertainty comes from
-    them; when some are missing, all points weigh the same and u is estimated from the scatter about the
-    line (s² = Σ r² / (n − 2)), as ordinary least squares does.  The crossing is where the line reaches
-    ``limit_um``, with its uncertainty propagated from the line's (first order, the covariance included);
-    none when the line does not rise."""
+    them, scaled by √(χ²/dof) when that exceeds 1 (the runs scatter more than they say); when some are
+    missing, all points weigh the same and u is estimated from the scatter about the line
+    (s² = Σ r² / (n − 2)), as ordinary least squares does.  The crossing is where the line reaches
+    ``limit_um`` (``-limit_um`` too for a ``signed`` value), with its uncertainty propagated from the
+    line's (first order, the covariance included); none when the line does not move towards the limit,
+    from fewer than ``MIN_RUNS_FOR_DATE`` runs or over less than ``MIN_SPAN_DAYS``."""
     pts = sorted(points, key=lambda p: (parse_date(p.date), p.run))
     steps = find_steps(pts)
+    since, count = beyond(pts, limit_um, signed)
+    base = {"limit_um": limit_um, "steps": steps, "signed": signed, "beyond_limit": since is not None,
+            "beyond_since": since, "beyond_count": count}
     if len(pts) < 2:
-        return Trend(pts, limit_um=limit_um, steps=steps, crossing_note="a trend needs at least two runs")
+        return Trend(pts, crossing_note="a trend needs at least two runs", **base)
     t0 = parse_date(pts[0].date)
     t = [years_between(t0, parse_date(p.date)) for p in pts]
     if max(t) - min(t) <= 0:
-        return Trend(pts, limit_um=limit_um, steps=steps, crossing_note="all runs have the same date")
+        return Trend(pts, crossing_note="all runs have the same date", **base)
     y = [p.value_um for p in pts]
     known = all(p.u_um is not None and p.u_um > 0 for p in pts)
     if known:
@@ -133,30 +179,52 @@ def fit_trend(points: list[TrendPoint], limit_um: float | None = None) -> Trend:
     resid = [(yi - a - b * ti) / ui for ti, yi, ui in zip(t, y, u, strict=True)]
     dof = len(pts) - 2
     chi2 = sum(r * r for r in resid)
-    if not known:
-        if dof < 1:
+    u_scale = None
+    if dof < 1:
+        if not known:
             var_a = var_b = cov_ab = math.nan
-        else:
-            s2 = chi2 / dof
-            var_a, var_b, cov_ab = var_a * s2, var_b * s2, cov_ab * s2
+    elif not known or chi2 / dof > 1.0:
+        # the scatter about the line, not the stated u, sets the uncertainty when it is the larger (Birge ratio)
+        s2 = chi2 / dof
+        var_a, var_b, cov_ab = var_a * s2, var_b * s2, cov_ab * s2
+        if known:
+            u_scale = math.sqrt(s2)
     trend = Trend(pts, slope_um_per_year=b, u_slope_um_per_year=math.sqrt(var_b) if math.isfinite(var_b) else None,
-                  intercept_um=a, t0=_iso(t0), weights=weights, limit_um=limit_um, steps=steps,
-                  chi2_per_dof=chi2 / dof if known and dof > 0 else None)
+                  intercept_um=a, t0=_iso(t0), weights=weights,
+                  chi2_per_dof=chi2 / dof if known and dof > 0 else None, u_scale=u_scale, **base)
     if limit_um is None:
         return trend
-    crossing, u_days, note = _crossing(a, b, var_a, var_b, cov_ab, limit_um, t0, t[-1])
+    span_days = (t[-1] - t[0]) * DAYS_PER_YEAR
+    if len(pts) < MIN_RUNS_FOR_DATE:
+        note = (f"{len(pts)} runs: a crossing date needs at least {MIN_RUNS_FOR_DATE} (two runs fix a line but not "
+                "its scatter)")
+        return Trend(**{**trend.__dict__, "crossing_note": note})
+    if span_days < MIN_SPAN_DAYS:
+        note = (f"the runs span {span_days:.1f} days: a crossing date needs at least {MIN_SPAN_DAYS:g} days between "
+                "the first and the newest run (a shorter span shows set-up variation, not wear)")
+        return Trend(**{**trend.__dict__, "crossing_note": note})
+    crossing, u_days, note = _crossing(a, b, var_a, var_b, cov_ab, limit_um, t0, t[-1], signed)
     return Trend(**{**trend.__dict__, "crossing_date": crossing, "u_crossing_days": u_days, "crossing_note": note})
 
 
 def _crossing(a: float, b: float, var_a: float, var_b: float, cov_ab: float, limit: float, t0: datetime,
-              t_last: float) -> tuple[str | None, float | None, str]:
+              t_last: float, signed: bool = False) -> tuple[str | None, float | None, str]:
     """t* = (L − a) / b; u²(t*) = (var a + t*² var b + 2 t* cov(a, b)) / b² (first-order propagation).
 
     The values are "larger is worse" (straightness, ISO 230-2 deviations): only a rising line reaches
-    its limit; one that was past it at the last run already (``t_last``, years from t0) gets its date with
-    a note."""
-    if not b > 0:
-        return None, None, "the value does not grow: the line never reaches the limit"
+    its limit; a ``signed`` value's limit bounds its magnitude: a falling line reaches −L.  A line that was
+    past the limit at the last run already (``t_last``, years from t0) gets its date with a note."""
+    if signed and b < 0:
+        limit = -limit
+    elif not b > 0:
+        if b < 0 and a + b * t_last > limit:  # beyond the limit and falling: when the line is back within it
+            try:
+                back = _iso(t0 + timedelta(days=(limit - a) / b * DAYS_PER_YEAR))
+            except OverflowError:
+                back = "after year 9999"
+            return None, None, f"the value falls: the line comes back within the limit on {back[:10]}"
+        return None, None, ("the value does not change: the line never reaches the limit" if signed else
+                            "the value does not grow: the line never reaches the limit")
     t_star = (limit - a) / b
     var_t = (var_a + t_star * t_star * var_b + 2.0 * t_star * cov_ab) / (b * b)
     u_days = math.sqrt(var_t) * DAYS_PER_YEAR if math.isfinite(var_t) and var_t >= 0 else None
@@ -168,15 +236,35 @@ def _crossing(a: float, b: float, var_a: float, var_b: float, cov_ab: float, lim
     return _iso(when), u_days, note
 
 
-def find_steps(pts: list[TrendPoint]) -> list[Step]:
-    """Consecutive runs (oldest first) whose values differ by more than ``STEP_K`` √(u₁² + u₂²);
-    pairs where either uncertainty is unknown are not judged."""
-    out = []
-    for p, q in zip(pts, pts[1:], strict=False):
-        if p.u_um is None or q.u_um is None:
-            continue
-        u = math.hypot(p.u_um, q.u_um)
-        change = q.value_um - p.value_um
-        if abs(change) > STEP_K * u:
-            out.append(Step(p.run, q.run, q.date, change, u))
+def find_steps(pts: list[TrendPoint], k: float = STEP_K) -> list[Step]:
+    """Runs (``pts`` oldest first) that jump against the trend: each run is compared with the weighted line of
+    the runs before it since the last step (at least two of them, at two different times), and is a step when
+    |y − ŷ| > k √(u² + u²(ŷ)), u²(ŷ) = (S_tt − 2 t S_t + t² S) / (S S_tt − S_t²) from the sums of w = 1/u²,
+    w t, w t² of those runs.  Under steady wear (a straight line) with the stated u, y − ŷ is normal with that
+    variance, so a false step comes at the two-sided normal tail rate of k.  The run after a step starts a new
+    stretch (the axis' new state).  Not judged when a run has no uncertainty."""
+    if not pts or not all(p.u_um is not None and p.u_um > 0 for p in pts):
+        return []
+    t0 = parse_date(pts[0].date)
+    t = [years_between(t0, parse_date(p.date)) for p in pts]
+    out: list[Step] = []
+    start = 0
+    s = st = stt = sy = sty = 0.0
+    for j, p in enumerate(pts):
+        if j - start >= 2:
+            tj = t[j] - t[start]  # times from the stretch's first run: small numbers, little cancellation
+            det = s * stt - st * st
+            if det > 1e-12 * s * stt:
+                b = (s * sty - st * sy) / det
+                a = (stt * sy - st * sty) / det
+                expected = a + b * tj
+                var_pred = (stt - 2.0 * tj * st + tj * tj * s) / det
+                u = math.sqrt(float(p.u_um) ** 2 + max(var_pred, 0.0))  # type: ignore[arg-type]
+                change = p.value_um - expected
+                if abs(change) > k * u:
+                    out.append(Step(pts[j - 1].run, p.run, p.date, change, u, expected, p.name))
+                    start, s, st, stt, sy, sty = j, 0.0, 0.0, 0.0, 0.0, 0.0
+        w = 1.0 / float(p.u_um) ** 2  # type: ignore[arg-type]
+        tj = t[j] - t[start]
+        s, st, stt, sy, sty = s + w, st + w * tj, stt + w * tj * tj, sy + w * p.value_um, sty + w * tj * p.value_um
     return out

@@ -54,7 +54,9 @@ def write_trend_report(at: AxisTrend, out: Path | str) -> Path:
             (f"slope ({u}/year, years of {DAYS_PER_YEAR} days)", t.slope_um_per_year),
             (f"standard uncertainty of the slope ({u}/year)", t.u_slope_um_per_year),
             ("chi² per degree of freedom", t.chi2_per_dof),
+            ("uncertainties scaled by √(χ²/dof)", t.u_scale),
             (f"limit ({u})", t.limit_um), ("limit from", at.limit_source or "—"),
+            ("beyond the limit", at.beyond_text or "no"),
             ("limit reached (UTC)", t.crossing_date or (t.crossing_note or "—")),
             ("standard uncertainty of that date (days)", t.u_crossing_days)]
     if t.crossing_note and t.crossing_date:
@@ -66,8 +68,9 @@ def write_trend_report(at: AxisTrend, out: Path | str) -> Path:
     page.heading("Runs (oldest first)")
     stepped = {s.to_run: s for s in t.steps}
     page.table(("date (UTC)", f"{at.value} ({u})", f"u ({u})", f"step ({u})", "run", "directory"),
-               [(p.date, p.value_um, p.u_um, stepped[p.run].change_um if p.run in stepped else None, p.run, p.path)
+               [(p.date, p.value_um, p.u_um, stepped[p.run].change_um if p.run in stepped else None, p.name, p.path)
                 for p in t.points], text_columns=(0, 4, 5))
-    page.paragraph(f"A step is a change between consecutive runs larger than {STEP_K:g} times their combined "
-                   "standard uncertainty √(u₁² + u₂²): a crash, a repair, a new compensation.", cls="note")
+    page.paragraph(f"A step is a run whose value departs from the line of the runs before it (since the last step) "
+                   f"by more than {STEP_K:g} times the combined standard uncertainty of the value and of the line's "
+                   "prediction: a crash, a repair, a new compensation, not the wear between runs.", cls="note")
     return write_page(out, page.render(), option="--report", example="trend.html")

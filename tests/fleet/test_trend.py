@@ -25,8 +25,9 @@ def iso(d: datetime) -> str:
     return d.strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
-def reference_fit(dates: list[datetime], y: list[float], u: list[float]) -> dict[str, float]:
-    """Weighted LSQ from the normal equations N p = r, N = [[Σw, Σwt], [Σwt, Σwt²]], cov = N⁻¹."""
+def reference_fit(dates: list[datetime], y: list[float], u: list[float], birge: bool = True) -> dict[str, float]:
+    """Weighted LSQ from the normal equations N p = r, N = [[Σw, Σwt], [Σwt, Σwt²]], cov = N⁻¹, multiplied by
+    χ²/dof when that exceeds 1 (``birge``: the scatter, not the stated u, sets the uncertainty)."""
     t = [(d - dates[0]).total_seconds() / YEAR_S for d in dates]
     w = [1 / x**2 for x in u]
     wty = list(zip(w, t, y, strict=True))
@@ -36,7 +37,10 @@ def reference_fit(dates: list[datetime], y: list[float], u: list[float]) -> dict
     inv = [[n22 / det, -n12 / det], [-n12 / det, n11 / det]]
     a = inv[0][0] * r1 + inv[0][1] * r2
     b = inv[1][0] * r1 + inv[1][1] * r2
-    return {"a": a, "b": b, "var_a": inv[0][0], "var_b": inv[1][1], "cov": inv[0][1]}
+    chi2_dof = sum(wi * (yi - a - b * ti) ** 2 for wi, ti, yi in wty) / (len(y) - 2) if len(y) > 2 else 0.0
+    f = max(1.0, chi2_dof) if birge else 1.0
+    return {"a": a, "b": b, "var_a": f * inv[0][0], "var_b": f * inv[1][1], "cov": f * inv[0][1],
+            "chi2_dof": chi2_dof}
 
 
 def crossing(f: dict[str, float], limit: float, origin: datetime) -> tuple[datetime, float]:
@@ -87,20 +91,25 @@ def test_equal_weights_when_uncertainties_are_unknown() -> None:
     assert trend.steps == []  # unknown uncertainties: no step can be judged
 
 
-def test_steps_between_runs_beyond_their_combined_uncertainty() -> None:
+def test_a_step_is_a_jump_against_the_line_of_the_runs_before_it() -> None:
     pts = [TrendPoint("a", "2025-01-01T00:00:00Z", 5.0, 0.1), TrendPoint("b", "2025-04-01T00:00:00Z", 5.2, 0.1),
-           # 0.2 < 2 * sqrt(0.1² + 0.1²) = 0.283: no step; -2.1 is one (a repair)
            TrendPoint("c", "2025-07-01T00:00:00Z", 3.1, 0.1), TrendPoint("d", "2025-10-01T00:00:00Z", 3.35, 0.1)]
     steps = fit_trend(pts).steps
+    # c against the line through a and b (90 days apart) extrapolated 181 days: ŷ = 5.0 + 0.2 λ, λ = 181/90,
+    # u²(ŷ) = u² ((1 − λ)² + λ²); d starts the new stretch after the step (one run: not judged)
+    lam = 181 / 90
     assert [(s.from_run, s.to_run) for s in steps] == [("b", "c")]
-    assert steps[0].change_um == pytest.approx(-2.1)
-    assert steps[0].u_um == pytest.approx(math.sqrt(0.02))
+    assert steps[0].expected_um == pytest.approx(5.0 + 0.2 * lam)
+    assert steps[0].change_um == pytest.approx(3.1 - 5.0 - 0.2 * lam)
+    assert steps[0].u_um == pytest.approx(0.1 * math.sqrt(1 + (1 - lam) ** 2 + lam**2))
 
 
 def test_no_crossing_when_the_value_does_not_grow() -> None:
-    pts = [TrendPoint("a", "2025-01-01T00:00:00Z", 5.0, 0.1), TrendPoint("b", "2026-01-01T00:00:00Z", 4.0, 0.1)]
+    pts = [TrendPoint("a", "2025-01-01T00:00:00Z", 5.0, 0.1), TrendPoint("b", "2026-01-01T00:00:00Z", 4.0, 0.1),
+           TrendPoint("c", "2027-01-01T00:00:00Z", 3.0, 0.1)]
     trend = fit_trend(pts, limit_um=8.0)
     assert trend.crossing_date is None and "does not grow" in trend.crossing_note
+    assert not trend.beyond_limit
 
 
 def test_trend_command(catalog_url: str, tmp_path: Path) -> None:
@@ -120,7 +129,8 @@ def test_trend_command(catalog_url: str, tmp_path: Path) -> None:
             "crossing_date", "steps"} <= set(out)
     assert (out["machine"], out["axis"], out["value"]) == ("mill-1", "X", "minimum_zone")
     assert [p["date"] for p in out["points"]] == [iso(d) for d in dates]
-    assert set(out["points"][0]) == {"run", "date", "value_um", "u_um"}
+    assert set(out["points"][0]) == {"run", "name", "date", "value_um", "u_um"}
+    assert [p["name"] for p in out["points"]] == [f"r{i}" for i in range(8)]  # the run directories' names
     assert [p["u_um"] for p in out["points"]] == pytest.approx(u, rel=1e-12)
     ref = reference_fit(dates, y, u)
     assert out["slope_um_per_year"] == pytest.approx(ref["b"], rel=1e-9)

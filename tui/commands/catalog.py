@@ -56,18 +56,26 @@ def headline(values: dict[str, Any]) -> str:
 
 
 def run_list(args: argparse.Namespace) -> int:
+    from fleet.catalog.clock import future_cutoff, is_future
     from fleet.catalog.runs import list_entries
 
     with _open(args) as cat:
         entries = list_entries(cat, machine=args.machine, axis=args.axis, kind=args.kind, since=args.since)
+        future = {e.uid for e in entries if is_future(e.created)}  # a rig clock ahead: flagged, left out of trends
         if args.json:
-            json.dump({"runs": [e.to_dict() for e in entries]}, sys.stdout, allow_nan=False)
+            json.dump({"runs": [e.to_dict() for e in entries],
+                       "future_dated": [e.uid for e in entries if e.uid in future]}, sys.stdout, allow_nan=False)
             sys.stdout.write("\n")
             return 0
         for e in entries:
             print(f"{e.created:<20} {e.machine or '-':<14} {e.axis or '-':<6} {e.kind:<12} {e.status:<11} "
                   f"{e.verdict or '-':<6} {headline(e.values):<28} {e.path}")
+            if e.uid in future:
+                print(f"  ^ dated in the future (created {e.created}): check the rig's clock; left out of trends")
         print(f"{len(entries)} run(s) in {cat.url}", file=sys.stderr)
+        if future:
+            print(f"note: {len(future)} run(s) created later than {future_cutoff():%Y-%m-%dT%H:%M:%SZ} (now + 1 day), "
+                  "marked ^: their rig's clock was wrong; trends leave them out", file=sys.stderr)
     return 0
 
 

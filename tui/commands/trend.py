@@ -37,7 +37,8 @@ def register(sub) -> None:  # noqa: ANN001
     t.add_argument("--machine", required=True, help="machine name as in run.json (\"\" for none)")
     t.add_argument("--axis", required=True, help="axis name as in run.json")
     t.add_argument("--value", required=True, metavar="NAME",
-                   help="E, M, B, A, R, ... (positioning) or endpoint, least_squares, minimum_zone (straightness)")
+                   help="E, M, B, B_mean, A, R, ... (positioning) or endpoint, least_squares, minimum_zone "
+                        "(straightness); B is a magnitude (largest |B_i|), B_mean the signed mean reversal")
     t.add_argument("--limit", type=float, default=None, metavar="L",
                    help="limit in um (arcsec on a rotary axis); default the newest run's [tolerance]")
     t.add_argument("--json", action="store_true", help="print one JSON object on stdout")
