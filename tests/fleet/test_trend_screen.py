@@ -73,8 +73,13 @@ def test_trend_screen_shows_plot_table_and_fit(tmp_path: Path) -> None:
             assert [str(table.get_row_at(i)[1]) for i in range(3)] == ["5.000", "5.500", "6.000"]
             fit = str(screen.query_one("#trend-fit", Static).render())
             # +0.5 um/year from 5.0 in 2023-01-01 (years of 365.25 d): 7.0 is reached 4.0 years later
-            assert "+0.500" in fit and "limit 7" in fit and "reached 2027-01-01" in fit
+            assert "+0.500" in fit and "limit 7" in fit and "reaches it 2027-01-01" in fit
             assert screen.query_one(Plot).data.series
+            # the runs by name (their directories), not by uid; the x axis from the first to the newest run's date
+            assert [str(table.get_row_at(i)[4]) for i in range(3)] == ["x0", "x1", "x2"]
+            plot = str(screen.query_one(Plot).render()).splitlines()
+            axis = next(ln for ln in plot if "yellow trend" in ln)
+            assert axis.split()[0] == "2023-01-01" and axis.split()[-1] == "2025-01-01"
             await pilot.press("v")
             await settle(app, pilot)
             assert screen.value == "least_squares"
@@ -126,5 +131,35 @@ def test_a_catalogue_that_does_not_answer_does_not_freeze_the_screen(tmp_path: P
             assert app.screen is not screen  # answered while the reading still waits
             release.set()
             await app.workers.wait_for_complete()
+
+    asyncio.run(drive())
+
+
+def test_trend_screen_says_the_axis_is_beyond_its_limit(tmp_path: Path) -> None:
+    url = f"sqlite:///{tmp_path / 'c.sqlite'}"
+    for i, e in enumerate((7.1, 5.9, 4.6, 3.5)):  # E falling, every run above the limit of 2
+        write_run(tmp_path / "runs", f"q{i}", kind="positioning", created=f"{2023 + i}-03-01T00:00:00Z",
+                  summary=positioning_summary({"E": e}))
+    write_run(tmp_path / "runs", "rising", axis="Y", created="2023-01-01T00:00:00Z",
+              summary=straightness_summary(5.0, 0.1))
+    for i, v in enumerate((5.5, 6.1, 7.6)):  # the line past 7 at the newest run; the newest value beyond it too
+        write_run(tmp_path / "runs", f"y{i}", axis="Y", created=f"{2024 + i}-01-01T00:00:00Z",
+                  summary=straightness_summary(v, 0.1))
+    assert guideway("catalog", "add", "--scan", tmp_path / "runs", "--catalog", url).returncode == 0
+
+    async def drive() -> None:
+        for axis, value, limit, expected in (
+                ("X", "E", 2.0, ("beyond the limit since run q0 (2023-03-01): every run above 2 um", "no crossing date",
+                                 "the value falls")),
+                ("Y", "minimum_zone", 7.0, ("beyond the limit since run y2 (2026-01-01)",
+                                            "the line was past the limit at the last run already"))):
+            screen = TrendScreen(url, "mill-1", axis, value, limit_um=limit)
+            app = TrendApp(screen)
+            async with app.run_test(size=(80, 24)) as pilot:
+                await settle(app, pilot)
+                fit = str(screen.query_one("#trend-fit", Static).render())
+                assert "never" not in fit
+                for frag in expected:
+                    assert frag in fit, fit
 
     asyncio.run(drive())

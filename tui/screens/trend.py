@@ -1,6 +1,7 @@
 """Trend screen: one headline value over every catalogued run of a machine axis (``guideway trend`` in
-the TUI): the values with their uncertainty and the fitted line as a plot, the runs as a table, the
-slope per year and the date the limit is reached.
+the TUI): the values with their uncertainty and the fitted line as a plot against the run dates, the runs
+(by name) as a table, the slope per year and the date the limit is reached, or since which run the axis is
+beyond it.
 
 Taking its inputs as constructor arguments, it is pushed from the runs browser (the selected run's
 machine and axis) or from anywhere else: ``app.push_screen(TrendScreen(url, machine, axis, value))``.
@@ -8,6 +9,8 @@ machine and axis) or from anywhere else: ``app.push_screen(TrendScreen(url, mach
 """
 
 from __future__ import annotations
+
+from datetime import timedelta
 
 from rich.text import Text
 from textual import work
@@ -19,16 +22,16 @@ from textual.widgets import DataTable, Footer, Header, Static
 
 from fleet.catalog.browse import CatalogFilter, browse_catalog, trend_values
 from fleet.catalog.database import open_catalog
-from fleet.trend.fit import parse_date, years_between
-from fleet.trend.of_catalog import AxisTrend, axis_trend
+from fleet.trend.fit import DAYS_PER_YEAR, parse_date, years_between
+from fleet.trend.of_catalog import MAGNITUDE_NOTE, AxisTrend, axis_trend
 from saved_runs.errors import UserError
 
 from ..widgets.plot import Plot, PlotData, Series
 
 
 def trend_plot(at: AxisTrend) -> PlotData:
-    """Values (cyan), their ± u bars (blue), the fitted line (yellow) and the limit (red) against years
-    since the first run."""
+    """Values (cyan), their ± u bars (blue), the fitted line (yellow) and the limit (red) against the run
+    date (x: years since the first run, labelled as UTC dates)."""
     t = at.trend
     if not t.points:
         return PlotData()
@@ -44,27 +47,47 @@ def trend_plot(at: AxisTrend) -> PlotData:
                              "yellow", "trend", join=True))
     if t.limit_um is not None:
         series.append(Series([(0.0, t.limit_um), (x_end, t.limit_um)], "red", "limit", join=True))
+        if t.signed:  # the limit bounds |value|
+            series.append(Series([(0.0, -t.limit_um), (x_end, -t.limit_um)], "red", join=True))
     series.append(Series(list(zip(xs, [p.value_um for p in t.points], strict=True)), "bold cyan", at.value))
-    return PlotData(series, x_label="years since the first run · values cyan ± u blue · trend yellow · limit red",
-                    y_label=at.unit)
+
+    def date(x: float) -> str:
+        try:
+            return (t0 + timedelta(days=x * DAYS_PER_YEAR)).strftime("%Y-%m-%d")
+        except OverflowError:
+            return "?"
+
+    return PlotData(series, x_label="date · cyan value ± u · yellow trend · red limit", y_label=at.unit,
+                    x_format=date)
 
 
 def trend_text(at: AxisTrend) -> str:
-    """The fit in one or two lines (plain text)."""
+    """The fit in one line, and the limit in a second: beyond it since which run, the crossing date or why
+    there is none (plain text)."""
     t, u = at.trend, at.unit
-    if t.slope_um_per_year is None:
-        return f"{len(t.points)} run(s): no trend ({t.crossing_note})"
-    us = "?" if t.u_slope_um_per_year is None else f"{t.u_slope_um_per_year:.3f}"
-    text = f"{len(t.points)} runs · trend {t.slope_um_per_year:+.3f} ± {us} {u}/year (k = 1)"
+    limit = ""
     if t.limit_um is not None:
-        when = (t.crossing_date or "never")[:10]
-        ud = f" ± {t.u_crossing_days:.0f} d" if t.u_crossing_days is not None else ""
-        text += f" · limit {t.limit_um:g} {u} reached {when}{ud}"
+        limit = f"limit {t.limit_um:g} {u}"
+        if t.beyond_limit:
+            limit += f": {at.beyond_text}"
+        if t.crossing_date is not None:
+            ud = f" ± {t.u_crossing_days:.0f} d" if t.u_crossing_days is not None else ""
+            limit += f"{';' if t.beyond_limit else ':'} the line reaches it {t.crossing_date[:10]}{ud}"
+            limit += f" ({t.crossing_note})" if t.crossing_note else ""
+        elif t.slope_um_per_year is not None:
+            limit += f"{';' if t.beyond_limit else ':'} no crossing date ({t.crossing_note})"
+    if t.slope_um_per_year is None:
+        return "\n".join(x for x in (f"{len(t.points)} run(s): no trend ({t.crossing_note})", limit) if x)
+    us = "?" if t.u_slope_um_per_year is None else f"{t.u_slope_um_per_year:.3f}"
+    scaled = f", u ×{t.u_scale:.1f} for the scatter" if t.u_scale is not None else ""
+    text = f"{len(t.points)} runs · trend {t.slope_um_per_year:+.3f} ± {us} {u}/year (k = 1{scaled})"
     if t.steps:
         text += f" · {len(t.steps)} step(s)"
     if at.left_out:
-        text += f" · {len(at.left_out)} run(s) not complete left out"
-    return text
+        text += f" · {len(at.left_out)} run(s) left out"
+    if at.value in MAGNITUDE_NOTE:
+        text += " · B is a magnitude: B_mean is signed"
+    return text + (f"\n{limit}" if limit else "")
 
 
 class TrendScreen(Screen):
@@ -140,7 +163,7 @@ class TrendScreen(Screen):
             step = stepped.get(p.run)
             table.add_row(Text(p.date.replace("T", " ").removesuffix("Z")), Text(f"{p.value_um:.3f}", justify="right"),
                           Text("-" if p.u_um is None else f"{p.u_um:.3f}", justify="right"),
-                          Text("" if step is None else f"{step.change_um:+.3f}", justify="right"), Text(p.run))
+                          Text("" if step is None else f"{step.change_um:+.3f}", justify="right"), Text(p.name))
 
     def action_next_value(self) -> None:
         i = self.values.index(self.value) if self.value in self.values else -1

@@ -11,6 +11,7 @@ Axis values are plain decimals in the data's unit (``1900``, ``-2.41``), never
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from rich.text import Text
@@ -35,6 +36,7 @@ class PlotData:
     x_label: str = ""
     y_label: str = ""
     legend: bool = False  # a last row naming each labelled series in its colour
+    x_format: Callable[[float], str] | None = None  # the x extremes as text (dates), else plain decimals
 
     def bounds(self) -> tuple[float, float, float, float] | None:
         pts = [p for s in self.series for p in s.points if math.isfinite(p[0]) and math.isfinite(p[1])]
@@ -132,7 +134,8 @@ class Plot(Widget):
                 bits = cells[r][c]
                 out.append(chr(0x2800 + bits) if bits else " ", style=styles[r][c] or "")
             out.append("\n")
-        left, right = axis_number(x0, x1 - x0, w), axis_number(x1, x1 - x0, w)
+        fmt = self.data.x_format or (lambda v: axis_number(v, x1 - x0, w))
+        left, right = fmt(x0), fmt(x1)
         mid = self.data.x_label[: max(0, w - len(left) - len(right) - 2)]
         gap = max(1, w - len(left) - len(right) - len(mid))
         out.append(" " * MARGIN + left + " " * (gap // 2) + mid + " " * (gap - gap // 2) + right, style="dim")
