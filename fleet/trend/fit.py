@@ -102,6 +102,7 @@ class Trend:
     beyond_limit: bool = False
     beyond_since: TrendPoint | None = None
     beyond_count: int = 0
+    step_scale: float | None = None  # c of the step test (scatter_scale); None when steps are not judged
 
     def line_um(self, when: datetime) -> float | None:
         """The fitted line's value at ``when``."""
@@ -158,9 +159,10 @@ def fit_trend(points: list[TrendPoint], limit_um: float | None = None, signed: b
     from fewer than ``MIN_RUNS_FOR_DATE`` runs or over less than ``MIN_SPAN_DAYS``."""
     pts = sorted(points, key=lambda p: (parse_date(p.date), p.run))
     steps = find_steps(pts)
+    judged = bool(pts) and all(p.u_um is not None and p.u_um > 0 for p in pts)
     since, count = beyond(pts, limit_um, signed)
     base = {"limit_um": limit_um, "steps": steps, "signed": signed, "beyond_limit": since is not None,
-            "beyond_since": since, "beyond_count": count}
+            "beyond_since": since, "beyond_count": count, "step_scale": scatter_scale(pts) if judged else None}
     if len(pts) < 2:
         return Trend(pts, crossing_note="a trend needs at least two runs", **base)
     t0 = parse_date(pts[0].date)
@@ -239,14 +241,43 @@ def _crossing(a: float, b: float, var_a: float, var_b: float, cov_ab: float, lim
 def find_steps(pts: list[TrendPoint], k: float = STEP_K) -> list[Step]:
     """Runs (``pts`` oldest first) that jump against the trend: each run is compared with the weighted line of
     the runs before it since the last step (at least two of them, at two different times), and is a step when
-    |y − ŷ| > k √(u² + u²(ŷ)), u²(ŷ) = (S_tt − 2 t S_t + t² S) / (S S_tt − S_t²) from the sums of w = 1/u²,
+    |y − ŷ| > k c √(u² + u²(ŷ)), u²(ŷ) = (S_tt − 2 t S_t + t² S) / (S S_tt − S_t²) from the sums of w = 1/u²,
     w t, w t² of those runs.  Under steady wear (a straight line) with the stated u, y − ŷ is normal with that
     variance, so a false step comes at the two-sided normal tail rate of k.  The run after a step starts a new
-    stretch (the axis' new state).  Not judged when a run has no uncertainty."""
+    stretch (the axis' new state).  c = :func:`scatter_scale`: runs that scatter more than their stated u
+    (set-up variation) are not all steps.  Not judged when a run has no uncertainty."""
     if not pts or not all(p.u_um is not None and p.u_um > 0 for p in pts):
         return []
     t0 = parse_date(pts[0].date)
-    t = [years_between(t0, parse_date(p.date)) for p in pts]
+    return _steps(pts, [years_between(t0, parse_date(p.date)) for p in pts], k, scatter_scale(pts))
+
+
+def scatter_scale(pts: list[TrendPoint]) -> float:
+    """How much more the runs scatter than their stated u, robustly to steps and to the wear:
+    c = max(1, 1.4826 MAD(d)), d_i = (y_{i+1} − y_i − b̃ Δt_i) / √(u_i² + u_{i+1}²) over consecutive runs
+    (``pts`` oldest first), b̃ the median of (y_{i+1} − y_i) / Δt_i: the wear removed pair by pair, and a step,
+    which moves one d, ignored by the medians.  1.4826 MAD estimates a normal standard deviation; 1 with
+    fewer than 3 pairs."""
+    t0 = parse_date(pts[0].date) if pts else None
+    t = [years_between(t0, parse_date(p.date)) for p in pts] if t0 else []
+    pairs = [(p, q, tq - tp) for p, q, tp, tq in zip(pts, pts[1:], t, t[1:], strict=False) if tq > tp]
+    if len(pairs) < 3:
+        return 1.0
+    slope = _median([(q.value_um - p.value_um) / dt for p, q, dt in pairs])
+    d = [(q.value_um - p.value_um - slope * dt) / math.hypot(float(p.u_um), float(q.u_um))  # type: ignore[arg-type]
+         for p, q, dt in pairs]
+    centre = _median(d)
+    return max(1.0, 1.4826 * _median([abs(x - centre) for x in d]))
+
+
+def _median(x: list[float]) -> float:
+    s = sorted(x)
+    n = len(s)
+    return s[n // 2] if n % 2 else 0.5 * (s[n // 2 - 1] + s[n // 2])
+
+
+def _steps(pts: list[TrendPoint], t: list[float], k: float, scale: float) -> list[Step]:
+    """The steps of :func:`find_steps` with the uncertainties multiplied by ``scale``."""
     out: list[Step] = []
     start = 0
     s = st = stt = sy = sty = 0.0
@@ -259,7 +290,7 @@ def find_steps(pts: list[TrendPoint], k: float = STEP_K) -> list[Step]:
                 a = (stt * sy - st * sty) / det
                 expected = a + b * tj
                 var_pred = (stt - 2.0 * tj * st + tj * tj * s) / det
-                u = math.sqrt(float(p.u_um) ** 2 + max(var_pred, 0.0))  # type: ignore[arg-type]
+                u = scale * math.sqrt(float(p.u_um) ** 2 + max(var_pred, 0.0))  # type: ignore[arg-type]
                 change = p.value_um - expected
                 if abs(change) > k * u:
                     out.append(Step(pts[j - 1].run, p.run, p.date, change, u, expected, p.name))

@@ -54,7 +54,8 @@ class AxisTrend:
                 "beyond_limit_since": None if since is None else {"run": since.run, "name": since.name,
                                                                    "date": since.date},
                 "intercept_um": t.intercept_um, "t0": t.t0, "weights": t.weights, "chi2_per_dof": t.chi2_per_dof,
-                "u_scaled_by": t.u_scale, "signed": t.signed, "value_note": MAGNITUDE_NOTE.get(self.value, ""),
+                "u_scaled_by": t.u_scale, "step_scale": t.step_scale, "signed": t.signed,
+                "value_note": MAGNITUDE_NOTE.get(self.value, ""),
                 "limit_source": self.limit_source, "unit": self.unit, "days_per_year": 365.25,
                 "min_runs_for_date": MIN_RUNS_FOR_DATE, "min_span_days": MIN_SPAN_DAYS,
                 "left_out": list(self.left_out)}
@@ -91,9 +92,11 @@ class AxisTrend:
                       f"{note}", file=stream)
             else:
                 print(f"limit {t.limit_um:g} {u} ({self.limit_source}): no crossing date{note}", file=stream)
+        scaled = (f" (u x {t.step_scale:.1f}: the runs scatter more than their u)"
+                  if t.step_scale is not None and t.step_scale > 1 else "")
         for s in t.steps:
             print(f"step: run {s.to_name or s.to_run} ({s.date}) {s.change_um:+.3f} {u} off the line of the runs "
-                  f"before it ({s.expected_um:.3f}), more than {STEP_K:g} x {s.u_um:.3f} {u}", file=stream)
+                  f"before it ({s.expected_um:.3f}), more than {STEP_K:g} x {s.u_um:.3f} {u}{scaled}", file=stream)
 
 
 def axis_trend(cat: Catalog, machine: str, axis: str, value: str, limit_um: float | None = None,
