@@ -43,6 +43,8 @@ class ActiveCompensation:
         }
         if self.fmt == "linuxcnc":
             out["comp_file_type"] = self.setup.comp_file_type
+        if self.setup.backlash is not None:
+            out["backlash_" + ("arcsec" if unit == "deg" else "um")] = self.setup.backlash
         if self.fmt == "fanuc":
             out[f"reference_position_{unit}"] = t.reference_position
             out["detection_unit_um"] = t.detection_unit_um
@@ -68,19 +70,20 @@ def load_compensation(c: CompensationSetup, setup: PositioningSetup) -> ActiveCo
         text = data.decode("utf-8")
     except UnicodeDecodeError:
         raise SetupError(f"[compensation] file {c.file} is not a text file (UTF-8)") from None
-    fmt = c.fmt or detect_format(text)
+    found = detect_format(text)
+    fmt = c.fmt or ("linuxcnc" if c.comp_file_type is not None else found)  # a COMP_FILE_TYPE names LinuxCNC
     if fmt is None:
         raise SetupError(f"[compensation] file {c.file}: cannot tell its controller format; give format = "
                          "\"linuxcnc\", \"fanuc\" or \"siemens\" (--compensation-format)")
-    found = detect_format(text)
-    if c.fmt is not None and found is not None and found != c.fmt:
-        raise SetupError(f"[compensation] file {c.file} reads as a {found} table, not {c.fmt}: a controller of one "
+    if found is not None and found != fmt:
+        raise SetupError(f"[compensation] file {c.file} reads as a {found} table, not {fmt}: a controller of one "
                          "kind cannot apply another's table; give the right format or file")
     try:
         table = load_controller_table(text, fmt, comp_file_type=c.comp_file_type,
                                       reference_position=c.reference_position,
                                       detection_unit_um=c.detection_unit_um,
-                                      reference_direction=c.reference_direction)
+                                      reference_direction=c.reference_direction,
+                                      backlash=None if c.backlash is None else c.backlash * setup_scale(setup))
     except ValueError as exc:
         hint = " (comp_file_type, or --comp-file-type)" if "COMP_FILE_TYPE" in str(exc) else ""
         raise SetupError(f"[compensation] file {c.file} ({fmt}): {exc}{hint}") from None
@@ -94,6 +97,11 @@ def load_compensation(c: CompensationSetup, setup: PositioningSetup) -> ActiveCo
             notes += (f"LinuxCNC stops reading at line {t.lines_read + 1} (not three numbers): "  # type: ignore[union-attr]
                       f"{unread} later line(s) ignored",)
     return ActiveCompensation(c, fmt, table, hashlib.sha256(data).hexdigest(), len(data), notes)
+
+
+def setup_scale(setup: PositioningSetup) -> float:
+    """um -> mm, or arcsec -> deg."""
+    return 1.0 / 3600.0 if setup.axis_type == "rotary" else 1e-3
 
 
 def _check_fits(table: ControllerTable, setup: PositioningSetup, file: str) -> None:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from saved_runs.errors import SetupError
 from saved_runs.toml_file import TomlTable
@@ -27,7 +26,9 @@ class CompensationSetup:
     ``comp_file_type``, the INI's ``COMP_FILE_TYPE``, since the file does not say);
     ``reference_position`` (Fanuc, mm or deg): where the reference position lies in the run's axis
     coordinates (None: the listing's comment); ``detection_unit_um`` (Fanuc; None: the listing's
-    comment, else 1); ``reference_direction`` (Fanuc): the reference-return direction, +1 or −1."""
+    comment, else 1); ``reference_direction`` (Fanuc, Siemens): the reference-return direction, +1 or
+    −1, the backlash state at power-on; ``backlash`` (µm or arcsec, lost motion): the backlash parameter
+    entered with the table (Siemens MD32450; Fanuc 1851 in place of the listing's; not LinuxCNC)."""
 
     file: str
     fmt: str | None = None
@@ -35,6 +36,7 @@ class CompensationSetup:
     reference_position: float | None = None
     detection_unit_um: float | None = None
     reference_direction: int = 1
+    backlash: float | None = None  # um (arcsec): backlash parameter entered with it (Siemens MD32450, Fanuc 1851)
 
     def __post_init__(self) -> None:
         if self.fmt is not None and self.fmt not in COMPENSATION_FORMATS:
@@ -49,27 +51,15 @@ class CompensationSetup:
                                                        and self.detection_unit_um > 0):
             raise SetupError(f"[compensation] detection_unit_um must be a positive number, got "
                              f"{self.detection_unit_um!r}")
+        if self.backlash is not None and not (math.isfinite(self.backlash) and self.backlash >= 0):
+            raise SetupError(f"[compensation] backlash must be a number >= 0 (the lost motion), got {self.backlash!r}")
         if self.reference_position is not None and not math.isfinite(self.reference_position):
             raise SetupError("[compensation] the reference position must be a finite number")
 
-    def to_table(self, unit: str) -> dict[str, Any]:
-        """The ``[compensation]`` table (TOML structure) that gives this set-up back."""
-        out: dict[str, Any] = {"file": self.file}
-        if self.fmt is not None:
-            out["format"] = self.fmt
-        if self.comp_file_type is not None:
-            out["comp_file_type"] = self.comp_file_type
-        if self.reference_position is not None:
-            out[f"reference_position_{unit}"] = self.reference_position
-        if self.detection_unit_um is not None:
-            out["detection_unit_um"] = self.detection_unit_um
-        if self.reference_direction != 1:
-            out["reference_direction"] = self.reference_direction
-        return out
-
 
 def compensation_setup(top: TomlTable, source: str, unit: str) -> CompensationSetup | None:
-    """``[compensation]`` of a set-up (None when the table is absent)."""
+    """``[compensation]`` of a set-up (None when the table is absent); ``unit``: mm or deg (the
+    backlash is in um or arcsec)."""
     present = "compensation" in top.data
     t = top.table("compensation")
     if not present:
@@ -84,7 +74,8 @@ def compensation_setup(top: TomlTable, source: str, unit: str) -> CompensationSe
             file=file, fmt=t.get("format", str, None), comp_file_type=t.get("comp_file_type", int, None),
             reference_position=t.get(f"reference_position_{unit}", float, None),
             detection_unit_um=t.get("detection_unit_um", float, None),
-            reference_direction=t.get("reference_direction", int, 1))
+            reference_direction=t.get("reference_direction", int, 1),
+            backlash=t.get("backlash_arcsec" if unit == "deg" else "backlash_um", float, None))
     except SetupError as exc:
         raise SetupError(f"{source}: {exc}") from None
     t.check_unknown()

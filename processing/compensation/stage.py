@@ -13,7 +13,9 @@ to the command: the axis goes to ``commanded + correction`` and meets its error 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+
+import numpy as np
 
 from .stage_fanuc import FanucComp, read_fanuc_listing
 from .stage_linuxcnc import LinuxCncComp, read_linuxcnc_comp
@@ -48,13 +50,15 @@ class ControllerTable:
     ``reference_position`` (Fanuc): the axis coordinate of the reference position the table is
     relative to; ``detection_unit_um`` (Fanuc): one detection unit (µm, or 0.001 deg on a rotary
     axis); ``reference_direction`` (Fanuc): the reference-return direction, the backlash state at
-    power-on."""
+    power-on; ``backlash`` (Siemens MD32450 BACKLASH, mm or deg): the lost motion the control makes
+    up on a reversal (a Fanuc 1851 is part of :class:`FanucComp`)."""
 
     fmt: str
     table: LinuxCncComp | FanucComp | SiemensComp
     reference_position: float = 0.0
     detection_unit_um: float = 1.0
     reference_direction: int = 1
+    backlash: float = 0.0
 
     @property
     def axis(self) -> str | None:
@@ -92,6 +96,8 @@ class ControllerTable:
         if t.lec is not None:
             parts.append(f"LEC {len(t.lec.values)} points" + (" modulo" if t.lec.modulo else ""))
         parts += [f"CEC {'both' if c.direction == 0 else '+' if c.direction > 0 else '-'}" for c in t.cec]
+        if self.backlash:
+            parts.append(f"MD32450 backlash {self.backlash:g}")
         return f"Siemens {t.axis}: " + ", ".join(parts)
 
     def correction(self, commanded: float, direction: int, *, referenced: bool = True, rapid: bool = False
@@ -103,7 +109,12 @@ class ControllerTable:
         if isinstance(t, LinuxCncComp):
             return t.correction(commanded, direction)
         if isinstance(t, SiemensComp):
-            return t.correction(commanded, direction) if referenced else 0.0
+            if not referenced:
+                return 0.0
+            # MD32450: after a reversal away from the referencing direction the lost motion is made up
+            # in the new direction (as Fanuc's 1851; the sign convention is to be checked on the machine)
+            reversed_ = direction not in (0, self.reference_direction)
+            return t.correction(commanded, direction) + (direction * self.backlash if reversed_ else 0.0)
         d = direction or self.reference_direction  # at power-on the control takes the reference direction
         counts = t.pitch_counts(commanded, d, self.reference_position) if referenced else 0.0
         pitch = counts * self.detection_unit_um * t.magnification
@@ -113,11 +124,18 @@ class ControllerTable:
 
 def load_controller_table(text: str, fmt: str, *, comp_file_type: int | None = None,
                           reference_position: float | None = None, detection_unit_um: float | None = None,
-                          reference_direction: int = 1) -> ControllerTable:
+                          reference_direction: int = 1, backlash: float | None = None) -> ControllerTable:
     """Read ``text`` as controller ``fmt`` reads it.  LinuxCNC needs ``comp_file_type`` (the INI's
     ``COMP_FILE_TYPE``: the file does not say); Fanuc takes the reference position and detection unit
-    from the arguments or else from the listing's comment lines.  ValueError for anything wrong."""
+    from the arguments or else from the listing's comment lines.  ``backlash`` (mm or deg, lost
+    motion): the backlash parameter entered with the table (Siemens MD32450; Fanuc 1851, rounded to
+    whole detection units, in place of the listing's; LinuxCNC has none with a comp file).
+    ValueError for anything wrong."""
+    if backlash is not None and not (backlash >= 0 and backlash < float("inf")):
+        raise ValueError("the backlash (lost motion) must be a number >= 0")
     if fmt == "linuxcnc":
+        if backlash:
+            raise ValueError("LinuxCNC ignores BACKLASH when a COMP_FILE is set: put the reversal into the table")
         if comp_file_type is None:
             raise ValueError("a LinuxCNC comp file needs its COMP_FILE_TYPE (0 or 1): the file does not say")
         table = read_linuxcnc_comp(text, comp_file_type)
@@ -135,9 +153,12 @@ def load_controller_table(text: str, fmt: str, *, comp_file_type: int | None = N
             raise ValueError("the detection unit must be positive")
         if reference_direction not in (1, -1):
             raise ValueError("the reference-return direction must be +1 or -1")
+        if backlash is not None:
+            f = replace(f, backlash_cutting=int(np.floor(backlash * 1000.0 / unit + 0.5)))
         return ControllerTable(fmt, f, float(ref), float(unit), reference_direction)
     if fmt == "siemens":
-        return ControllerTable(fmt, read_siemens_comp(text))
+        return ControllerTable(fmt, read_siemens_comp(text), reference_direction=reference_direction,
+                               backlash=backlash or 0.0)
     raise ValueError(f"unknown controller format {fmt!r}; choose one of {', '.join(FORMATS)}")
 
 

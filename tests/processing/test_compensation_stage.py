@@ -294,6 +294,27 @@ def test_siemens_bad_files_are_refused_naming_the_line() -> None:
         load_controller_table(LEC.replace("MAX[0,X1]=1.0", "MAX[0,X1]=3.0"), "siemens")
 
 
+def test_siemens_backlash_md32450_after_a_reversal_from_the_referencing_direction() -> None:
+    t = load_controller_table(LEC, "siemens", backlash=0.004)  # 4 um lost motion, referenced moving +
+    c = Compensator(t, start=-1.0)
+    assert c.move_to(0.0) == pytest.approx(-0.010)  # LEC only
+    assert c.move_to(-0.5) == pytest.approx(-0.0065 - 0.004)  # reversed: 4 um more in the new direction
+    assert c.move_to(-0.5) == pytest.approx(-0.0065 - 0.004)  # at rest: kept
+    assert c.move_to(0.0) == pytest.approx(-0.010)
+    assert t.correction(0.0, -1, referenced=False) == 0.0
+
+
+def test_backlash_parameter_with_the_table() -> None:
+    # Fanuc: given in mm, entered as 1851 in whole detection units (2.6 um / 2 um -> 1 unit ... 1.3 -> 1)
+    t = load_controller_table(fanuc_listing([0] * 17, extra=("PARAM 1851=9",)), "fanuc", reference_position=0.0,
+                              detection_unit_um=2.0, backlash=0.0026)
+    assert t.correction(0.0, -1) == pytest.approx(-2e-3)
+    with pytest.raises(ValueError, match="LinuxCNC ignores BACKLASH"):
+        load_controller_table(TYPE1, "linuxcnc", comp_file_type=1, backlash=0.003)
+    with pytest.raises(ValueError, match=">= 0"):
+        load_controller_table(LEC, "siemens", backlash=-0.003)
+
+
 def test_format_detection() -> None:
     assert detect_format(LEC) == "siemens"
     assert detect_format(fanuc_listing(MANUAL_INCREMENTS)) == "fanuc"

@@ -29,6 +29,10 @@ def run(args: argparse.Namespace) -> int:
     from saved_runs.toml_file import read_toml
 
     resume = args.resume is not None
+    compensation = args.compensation is not None or args.compensation_format is not None or (
+        args.comp_file_type is not None)
+    if compensation and resume:
+        raise SetupError("--compensation applies to a new run; a resumed run keeps the table it started with")
     if isinstance(args.resume, Path):
         if args.out is not None and args.out != args.resume:
             raise SetupError("--resume RUN_DIR and --out name different directories; give one of them")
@@ -50,8 +54,8 @@ def run(args: argparse.Namespace) -> int:
     sim = SimOptions(args.seed, not args.no_noise, args.faults,
                      scenario=str(args.scenario.resolve()) if args.scenario else None) if args.simulate else None
     source = read_toml(args.setup) if args.setup is not None else None
-    if args.compensation is not None or args.compensation_format is not None or args.comp_file_type is not None:
-        source = _with_compensation(args, source, resume)
+    if compensation:
+        source = _with_compensation(args, source)
     res = acquire(args.kind, source, str(args.setup), args.out, simulate=sim, auto=args.auto, resume=resume,
                   stream=sys.stdout, stdin=sys.stdin)  # this call's streams, not import time's
     status = res.outcome.exit_status
@@ -66,13 +70,13 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _with_compensation(args: argparse.Namespace, source: dict | None, resume: bool) -> dict:
+def _with_compensation(args: argparse.Namespace, source: dict | None) -> dict:
     """The set-up with ``[compensation]`` from ``--compensation FILE`` (replacing the set-up's own);
     ``--compensation-format`` / ``--comp-file-type`` alone complete the set-up's table."""
     from saved_runs.errors import SetupError
 
-    if resume or source is None:
-        raise SetupError("--compensation applies to a new run; a resumed run keeps the table it started with")
+    if source is None:
+        raise SetupError("--compensation needs --setup SETUP.toml")
     if args.kind != "positioning":
         raise SetupError("--compensation is for positioning runs (the controller's compensation table)")
     table = dict(source.get("compensation") or {})
