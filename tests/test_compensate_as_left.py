@@ -195,3 +195,60 @@ def test_compensation_is_for_new_positioning_runs(tmp_path: Path) -> None:
                    "--compensation is for positioning runs")
     one_line_error(guideway("acquire", "--resume", tmp_path / "s", "--compensation", path),
                    "a resumed run keeps the table it started with")
+
+
+def directional_means(run_dir: Path, x: np.ndarray) -> dict[int, np.ndarray]:
+    m = means(run_dir)
+    return {d: m.xs(d, level="direction")["mean"].reindex(x).to_numpy() for d in (1, -1)}
+
+
+def test_export_from_an_as_left_run_is_the_old_table_plus_the_measured_difference(tmp_path: Path) -> None:
+    setup = setup_file(tmp_path)
+    found, left, again = tmp_path / "found", tmp_path / "left", tmp_path / "again"
+    t1, t2 = tmp_path / "t1.comp", tmp_path / "t2.comp"
+    acquire(setup, found)
+    assert guideway("export", found, "--format", "linuxcnc", "--out", t1).returncode == 0
+    acquire(setup, left, "--compensation", t1, "--comp-file-type", "1", seed=1)
+    res = guideway("export", left, "--format", "linuxcnc", "--out", t2, "--json")
+    assert res.returncode == 0, res.stderr
+    out = json.loads(res.stdout)
+    assert "plus the measured difference (CARTO's rule)" in out["notes"][0]
+    assert out["combined_with"]["sha256"] == hashlib.sha256(t1.read_bytes()).hexdigest()
+    # trim_new = trim_old - e_left (um -> mm) at every target and direction, by the test-side reader
+    x = np.array(sorted({t for t, _ in means(found).index}))
+    e_left = directional_means(left, x)
+    c1 = read_linuxcnc_comp(t1.read_text(), 1)
+    c2 = read_linuxcnc_comp(t2.read_text(), 1)
+    for d in (1, -1):
+        np.testing.assert_allclose(c2.trim(x, d), c1.trim(x, d) - e_left[d] / 1000.0, atol=2e-6)
+    assert np.max(np.abs(c2.trim(x, 1))) > 2e-3  # not a table of the small as-left errors alone
+    # measured again with the new table: the prediction from the as-found means holds as well
+    acquire(setup, again, "--compensation", t2, "--comp-file-type", "1", seed=2)
+    e_found, e_again = directional_means(found, x), directional_means(again, x)
+    repeat = 4.0 * float(means(again)["std"].max())
+    for d in (1, -1):
+        predicted = e_found[d] + c2.correction_um(x, d)
+        assert np.all(np.abs(e_again[d] - predicted) <= repeat), (d, e_again[d] - predicted, repeat)
+
+
+def test_export_from_an_as_left_run_refuses_to_combine_other_tables(tmp_path: Path) -> None:
+    setup = setup_file(tmp_path, runs=2)
+    found, left, t1 = tmp_path / "found", tmp_path / "left", tmp_path / "t1.comp"
+    acquire(setup, found)
+    res = guideway("export", found, "--format", "linuxcnc", "--out", t1, "--json")
+    assert not any("CARTO" in n or "does not record" in n for n in json.loads(res.stdout)["notes"])
+    acquire(setup, left, "--compensation", t1, "--comp-file-type", "1", seed=1)
+    one_line_error(guideway("export", left, "--format", "fanuc", "--out", tmp_path / "f.txt"),
+                   "measured with a linuxcnc table active", "cannot be combined", "--format linuxcnc")
+    one_line_error(guideway("export", left, "--format", "csv", "--out", tmp_path / "f.csv"), "cannot be combined")
+    one_line_error(guideway("export", left, "--format", "linuxcnc", "--linuxcnc-type", "0", "--out",
+                            tmp_path / "t0.comp"), "COMP_FILE_TYPE 1", "--linuxcnc-type 1")
+    t1.write_text(t1.read_text() + "\n", encoding="utf-8")
+    one_line_error(guideway("export", left, "--format", "linuxcnc", "--out", tmp_path / "t2.comp"),
+                   "is not the table that was active during the run")
+    # a run from before the record: the export says it cannot know
+    meta = json.loads((found / "run.json").read_text())
+    del meta["compensation"]
+    (found / "run.json").write_text(json.dumps(meta))
+    res = guideway("export", found, "--format", "linuxcnc", "--out", tmp_path / "t3.comp", "--json")
+    assert "does not record whether a compensation table was active" in json.loads(res.stdout)["notes"][0]
