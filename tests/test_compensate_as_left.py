@@ -252,3 +252,33 @@ def test_export_from_an_as_left_run_refuses_to_combine_other_tables(tmp_path: Pa
     (found / "run.json").write_text(json.dumps(meta))
     res = guideway("export", found, "--format", "linuxcnc", "--out", tmp_path / "t3.comp", "--json")
     assert "does not record whether a compensation table was active" in json.loads(res.stdout)["notes"][0]
+
+
+def test_rotary_axis_with_a_modulo_lec_table(tmp_path: Path) -> None:
+    # a rotary axis (deg, arcsec): the Siemens modulo table of one revolution, applied by the simulated controller
+    setup = tmp_path / "rot.toml"
+    setup.write_text('kind = "positioning"\n[axis]\ntype = "rotary"\nname = "C"\nstart_deg = 0.0\nend_deg = 360.0\n'
+                     'runs = 5\n', encoding="utf-8")
+    found, left, table = tmp_path / "found", tmp_path / "left", tmp_path / "c.ini"
+    acquire(setup, found)
+    assert guideway("export", found, "--format", "siemens", "--siemens-modulo", "--out", table).returncode == 0
+    acquire(setup, left, "--compensation", table, seed=1)
+    assert json.loads((left / "run.json").read_text())["compensation"]["table"] == "Siemens C1: LEC 9 points modulo"
+
+    def rotary_means(run_dir: Path) -> pd.DataFrame:
+        pts = pd.read_csv(run_dir / "points.csv")
+        pts["e"] = (pts["reading_deg"] - pts["target_deg"]) * 3600.0
+        return pts.groupby(["target_deg", "direction"])["e"].agg(["mean", "std"])
+
+    m_found, m_left = rotary_means(found), rotary_means(left)
+    x = np.array(sorted({t for t, _ in m_found.index}))
+    lec = read_siemens_lec(table.read_text(encoding="utf-8"))
+    assert lec.modulo
+    correction_arcsec = -lec.value_mm(x) * 3600.0  # value in deg, +e: the axis moves the other way
+    repeat = 4.0 * float(m_left["std"].max())
+    for d in (1, -1):
+        predicted = m_found.xs(d, level="direction")["mean"].reindex(x).to_numpy() + correction_arcsec
+        got = m_left.xs(d, level="direction")["mean"].reindex(x).to_numpy()
+        assert np.all(np.abs(got - predicted) <= repeat), (d, got - predicted, repeat)
+        # the check can fail: the table's effect is larger than the band
+        assert np.any(np.abs(correction_arcsec) > 1.5 * repeat)
