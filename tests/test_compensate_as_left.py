@@ -282,3 +282,9 @@ def test_rotary_axis_with_a_modulo_lec_table(tmp_path: Path) -> None:
         assert np.all(np.abs(got - predicted) <= repeat), (d, got - predicted, repeat)
         # the check can fail: the table's effect is larger than the band
         assert np.any(np.abs(correction_arcsec) > 1.5 * repeat)
+
+
+def test_guideway_simulate_records_no_compensation(tmp_path: Path) -> None:
+    res = guideway("simulate", ROOT / "docs" / "scenario-positioning.toml", "--out", tmp_path / "run")
+    assert res.returncode == 0, res.stderr
+    assert json.loads((tmp_path / "run" / "run.json").read_text())["compensation"] == {"active": False}
