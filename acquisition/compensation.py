@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from processing.compensation.stage import ControllerTable, detect_format, load_controller_table
+from processing.compensation.stage_fanuc import FanucComp
+from processing.compensation.stage_linuxcnc import LinuxCncComp
 from saved_runs.errors import SetupError
 
 from .setup.compensation import CompensationSetup
@@ -89,13 +91,13 @@ def load_compensation(c: CompensationSetup, setup: PositioningSetup) -> ActiveCo
         raise SetupError(f"[compensation] file {c.file} ({fmt}): {exc}{hint}") from None
     _check_fits(table, setup, c.file)
     notes: tuple[str, ...] = ()
-    if fmt == "linuxcnc":
+    if isinstance(table.table, LinuxCncComp):  # what LinuxCNC would print (or silently skip) loading it
         t = table.table
-        notes = tuple(f"LinuxCNC refuses {m}" for m in getattr(t, "refused", ()))
-        unread = len([ln for ln in text.splitlines() if ln.strip()]) - getattr(t, "lines_read", 0)
+        notes = tuple(f"LinuxCNC refuses {m}" for m in t.refused)
+        unread = len(text.splitlines()) - t.lines_read
         if unread > 0:
-            notes += (f"LinuxCNC stops reading at line {t.lines_read + 1} (not three numbers): "  # type: ignore[union-attr]
-                      f"{unread} later line(s) ignored",)
+            notes += (f"LinuxCNC stops reading at line {t.lines_read + 1} (not three numbers): the "
+                      f"{unread} line(s) from there on are ignored",)
     return ActiveCompensation(c, fmt, table, hashlib.sha256(data).hexdigest(), len(data), notes)
 
 
@@ -120,9 +122,6 @@ def _check_fits(table: ControllerTable, setup: PositioningSetup, file: str) -> N
 
 
 def _table_range(table: ControllerTable) -> tuple[float | None, float | None]:
-    from processing.compensation.stage_fanuc import FanucComp
-    from processing.compensation.stage_linuxcnc import LinuxCncComp
-
     t = table.table
     if isinstance(t, LinuxCncComp):
         return float(t.nominal[0]), float(t.nominal[-1])

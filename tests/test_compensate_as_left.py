@@ -288,3 +288,16 @@ def test_guideway_simulate_records_no_compensation(tmp_path: Path) -> None:
     res = guideway("simulate", ROOT / "docs" / "scenario-positioning.toml", "--out", tmp_path / "run")
     assert res.returncode == 0, res.stderr
     assert json.loads((tmp_path / "run" / "run.json").read_text())["compensation"] == {"active": False}
+
+
+def test_what_linuxcnc_would_skip_is_printed(tmp_path: Path) -> None:
+    table = tmp_path / "x.comp"
+    table.write_text("0.0 0.001 0.001\n# later entries\n400.0 0.009 0.009\n", encoding="utf-8")
+    res = guideway("acquire", "positioning", "--setup", setup_file(tmp_path, runs=1), "--out", tmp_path / "r",
+                   "--simulate", "--auto", "--compensation", table, "--comp-file-type", "1")
+    assert res.returncode == 0, res.stderr
+    assert "note: LinuxCNC stops reading at line 2 (not three numbers): the 2 line(s) from there on are ignored" \
+        in res.stdout
+    rec = json.loads((tmp_path / "r" / "run.json").read_text())["compensation"]
+    assert rec["entries"] == 1 and rec["notes"] == [
+        "LinuxCNC stops reading at line 2 (not three numbers): the 2 line(s) from there on are ignored"]
