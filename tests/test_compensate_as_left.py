@@ -292,7 +292,7 @@ def test_guideway_simulate_records_no_compensation(tmp_path: Path) -> None:
 
 def test_what_linuxcnc_would_skip_is_printed(tmp_path: Path) -> None:
     table = tmp_path / "x.comp"
-    table.write_text("0.0 0.001 0.001\n# later entries\n400.0 0.009 0.009\n", encoding="utf-8")
+    table.write_text("100.0 0.001 0.001\n# later entries\n400.0 0.009 0.009\n", encoding="utf-8")
     res = guideway("acquire", "positioning", "--setup", setup_file(tmp_path, runs=1), "--out", tmp_path / "r",
                    "--simulate", "--auto", "--compensation", table, "--comp-file-type", "1")
     assert res.returncode == 0, res.stderr
