@@ -51,6 +51,7 @@ CASES = {
     "linuxcnc-type0": (("--format", "linuxcnc", "--linuxcnc-type", "0"), ("--comp-file-type", "0")),
     "linuxcnc-type1": (("--format", "linuxcnc", "--linuxcnc-type", "1"), ("--comp-file-type", "1")),
     "fanuc": (("--format", "fanuc"), ()),
+    "fanuc+1851": (("--format", "fanuc", "--mode", "backlash"), ()),  # one table, the lost motion in 1851
     "siemens": (("--format", "siemens"), ()),  # the LEC file alone: not direction dependent
     "siemens+MD32450": (("--format", "siemens"), ()),  # with the reported lost motion in MD32450
 }
@@ -63,8 +64,11 @@ def predicted_correction_um(name: str, text: str, x: np.ndarray, direction: int,
     referencing direction (+)."""
     if name.startswith("linuxcnc"):
         return read_linuxcnc_comp(text, int(name[-1])).correction_um(x, direction)
-    if name == "fanuc":  # export default: the reference position at the first target, 1 um detection unit
-        return read_fanuc(text).correction_um_anywhere(x, first_target, direction, 1.0)
+    if name.startswith("fanuc"):  # export default: the reference position at the first target, 1 um detection unit
+        # 1851 (whole detection units): made up in the new direction after the first reversal from the
+        # reference-return direction (+), so moving - the axis is moved 1851 units further -
+        backlash = -float(np.floor(lost_motion_um + 0.5)) if direction < 0 else 0.0
+        return read_fanuc(text).correction_um_anywhere(x, first_target, direction, 1.0) + backlash
     backlash = lost_motion_um * direction if direction < 0 else 0.0
     return read_siemens_lec(text).correction_um(x) + backlash  # LEC: not direction dependent
 
@@ -82,8 +86,8 @@ def test_as_left_run_meets_the_predicted_residual(tmp_path: Path, name: str) -> 
     x_all = np.array(sorted({t for t, _ in m_found.index}))
     found_up, found_dn = (m_found.xs(d, level="direction")["mean"].reindex(x_all).to_numpy() for d in (1, -1))
     lost_um = 0.0
-    if name == "siemens+MD32450":
-        # the lost motion the export reports for MD32450: -mean(up - down), computed here from the means
+    if name in ("siemens+MD32450", "fanuc+1851"):
+        # the lost motion the export reports for MD32450 / 1851: -mean(up - down), computed here from the means
         lost_um = round(-float(np.mean(found_up - found_dn)), 3)
         setup = setup_file(tmp_path, f'\n[compensation]\nfile = "{table}"\nbacklash_um = {lost_um}\n')
         acquire(setup, left, seed=1)
