@@ -30,6 +30,7 @@ from saved_runs.store.writer import RunStore
 
 from . import inposition  # noqa: F401 - registers the in-position message handlers
 from .cataloguing import add_completed_run, setup_catalog_url
+from .compensation import NO_COMPENSATION, ActiveCompensation, load_compensation
 from .engine import RunEngine, RunOutcome, Subscriber
 from .live import DeviationCallback, HeightCallback, LiveDeviation, LiveProfile
 from .messages import Log, Prompt
@@ -422,12 +423,17 @@ def run_positioning(
         assert isinstance(setup, PositioningSetup)
         _check_hands_free(setup, auto, simulate, operator)
         rp = positioning_resume_point(store.meta, store.loaded_points, setup.measured_stops())
+        active = _compensation(setup, simulate, store.meta)
     else:
         if setup is None:
             raise SetupError("a new run needs --setup SETUP.toml")
         _check_hands_free(setup, auto, simulate, operator)
-        store = RunStore(out, {**setup.header(), **({"setup_source": setup_source} if setup_source else {})})
+        active = _compensation(setup, simulate, None)
+        record = active.record(setup.unit, _applied_by(simulate)) if active is not None else NO_COMPENSATION
+        store = RunStore(out, {**setup.header(), **({"setup_source": setup_source} if setup_source else {}),
+                               "compensation": record})
         store.prepare()
+    _print_compensation(active, simulate, stream)
     if simulate is not None and resume and "simulation" in store.meta:
         simulate = simulate.resumed(store.meta["simulation"])
     simulate, scenario = _scenario(simulate, setup.scenario, "positioning")
@@ -439,7 +445,8 @@ def run_positioning(
         with _closed_on_error(cleanup):
             sim = start_simulated_machine(setup, seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
                                           start_at=rp.next_index if rp is not None else 0, scenario=scenario,
-                                          device_id=_device_id(setup.devices.controller_url))
+                                          device_id=_device_id(setup.devices.controller_url),
+                                          compensation=active.table if active is not None else None)
             cleanup.callback(sim.close)
             refuse_faults_that_cannot_fire(sim.faults, sensor=False)
             url = sim.controller_url
@@ -479,6 +486,36 @@ def run_positioning(
         cleanup.close()
     _print_outcome(outcome, store, out, stream)
     return PositioningResult(out, outcome, setup, sim, tuple(engine.faults), live)
+
+
+def _applied_by(simulate: SimOptions | None) -> str:
+    return "simulated controller" if simulate is not None else "controller (as the set-up states)"
+
+
+def _compensation(setup: PositioningSetup, simulate: SimOptions | None,
+                  stored: dict[str, Any] | None) -> ActiveCompensation | None:
+    """The set-up's ``[compensation]`` read as its controller reads it; a resumed run (``stored``: its
+    run.json) must have the very file it started with (the same SHA-256)."""
+    active = load_compensation(setup.compensation, setup) if setup.compensation is not None else None
+    if stored is not None:
+        before = stored.get("compensation")
+        if isinstance(before, dict) and before.get("active") and (active is None or
+                                                                 active.sha256 != before.get("sha256")):
+            raise SetupError(f"the run started with compensation table {before.get('path')} (sha256 "
+                             f"{str(before.get('sha256'))[:12]}…), which is no longer there as it was; restore it "
+                             "to resume, or start a new run")
+    return active
+
+
+def _print_compensation(active: ActiveCompensation | None, simulate: SimOptions | None, stream: TextIO) -> None:
+    if active is None:
+        return
+    who = "the simulated controller applies it" if simulate is not None else (
+        "recorded as loaded in the controller; the tool does not load it")
+    print(f"compensation: {active.setup.file} ({active.table.description()}, sha256 {active.sha256[:12]}…): {who}",
+          file=stream)
+    for note in active.notes:
+        print(f"note: {note}", file=stream)
 
 
 def acquire(kind: str, source: dict[str, Any] | None, source_name: str, out: Path | str, *,

@@ -27,8 +27,13 @@ Motion itself takes no simulated time; machine time advances by move time at
 the feed rate plus the dwell at each stop, so thermal drift depends on the
 cycle, not on how fast the test runs.  Actual position at rest::
 
-    X_20   = commanded + e(P, direction, t) + noise      (the axis at 20 C)
+    X_20   = P + e(P, direction, t) + noise      (the axis at 20 C)
     e = pitch(P) + periodic(P) + direction-dependent backlash + thermal(P, t)
+    P = commanded + c                           (c: the controller's compensation, 0 without one)
+
+With a ``compensator`` (the controller's compensation stage) the controller adds its correction c
+to each commanded position, so the axis goes to commanded + c and meets its error there.  The
+datum (before the program's first move) is uncompensated: the interferometer is zeroed there.
 
 The interferometer is zeroed at the datum.  Rotary axes: it reports
 ``angle_deg = X_20 - datum`` (an angular interferometer's two beams share the air).
@@ -53,6 +58,7 @@ import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from pymodbus.simulator import DataType, SimData
@@ -160,6 +166,9 @@ class MachineAxis:
     wall_clock_effects: bool = False
     bits_left_set: bool = False
     program_start_s: float = 0.0
+    # the controller's compensation stage (processing.compensation.stage.Compensator or alike): told
+    # every commanded position, it returns the correction (mm or deg) the controller adds to it
+    compensator: Any = None
 
     def __post_init__(self) -> None:
         if self.handshake not in ("ack", "cycle-start", "timed"):
@@ -184,6 +193,7 @@ class MachineAxis:
         self._effects_n0: float | None = None  # the same for a scenario's dead_path effect
         self._effects_t0: float | None = None  # time (s) of the first measured point: the effects' t = 0
         self._t_built = time.monotonic()
+        self.correction = 0.0  # the compensation stage's correction at the current stop (mm or deg)
 
     # -- units: errors are um (linear) or arcsec (rotary) -------------------------------------
     def _unit(self, e: float) -> float:
@@ -194,13 +204,15 @@ class MachineAxis:
         if self.index < 0:
             return self.datum
         s = self.stops[self.index]
-        e = self.errors.deviation(s.position, s.direction, self.machine_time_s / 3600)
+        # the controller adds its correction to the command: the axis goes there and meets its error there
+        p = s.position + self.correction
+        e = self.errors.deviation(p, s.direction, self.machine_time_s / 3600)
         if self.effects is not None:
-            e += self._effect_error(s)
-        return s.position + self._unit(e)
+            e += self._effect_error(s, p)
+        return p + self._unit(e)
 
-    def _effect_error(self, s: MachineStop) -> float:
-        """The scenario effects' error (um) at stop ``s`` now.
+    def _effect_error(self, s: MachineStop, position: float) -> float:
+        """The scenario effects' error (um) at stop ``s`` now, the axis at ``position``.
 
         Time and air index count from the first measured point (docs/diagnosis.md: t = minutes since
         the first point, n₀ = the index of the first point), wherever the program started."""
@@ -216,7 +228,7 @@ class MachineAxis:
                 self._effects_n0 = n
             dn = n - (n if self._effects_n0 is None else self._effects_n0)
         t0 = t_s if self._effects_t0 is None else self._effects_t0
-        return self.effects.error_um(s.position, s.direction, (t_s - t0) / 60.0, dn)
+        return self.effects.error_um(position, s.direction, (t_s - t0) / 60.0, dn)
 
     # -- the program ---------------------------------------------------------------------------
     def _advance(self) -> None:
@@ -226,6 +238,7 @@ class MachineAxis:
             s = self.stops[self.index]
             dist = abs(s.position - self.commanded)
             self.commanded = s.position
+            self.correction = self.compensator.move_to(s.position) if self.compensator is not None else 0.0
             self.machine_time_s += 60.0 * dist / self.feed_per_min + (self.dwell_s if s.target_index else 0.0)
             self._arrived = time.monotonic()
             if s.target_index:

@@ -16,6 +16,7 @@ from saved_runs.errors import SetupError, UserError
 from saved_runs.evaluation.tolerance import positioning_tolerance
 from saved_runs.toml_file import TomlTable, naming_source, read_toml
 
+from .compensation import CompensationSetup, compensation_setup
 from .cycles import CYCLES, Cycle, check_targets, cycle, linear_targets, rotary_targets
 from .maxima import check_size
 from .shared_tables import DeviceSetup, catalog_table, check_devices, controller_timing_keys, scenario_path
@@ -119,6 +120,7 @@ class PositioningSetup:
     notes: str = ""
     tolerance: dict[str, float] = field(default_factory=dict)  # [tolerance], saved_runs.evaluation.tolerance
     scenario: str = ""  # [simulation] scenario: the file --simulate takes its effects from ("" = none)
+    compensation: CompensationSetup | None = None  # [compensation]: the table active in the controller
 
     def __post_init__(self) -> None:
         if self.axis_type not in AXIS_TYPES:
@@ -314,6 +316,7 @@ def _positioning_setup(data: dict[str, Any], source: str, nc_checked: bool = Tru
     tolerance = positioning_tolerance(top.table("tolerance").data, "arcsec" if axis_type == "rotary" else "um",
                                       source)
     scenario = scenario_path(sim.get("scenario", str, ""), source)
+    compensation = compensation_setup(top, source, u)
     for t in (top, ax, tr, en, ctl, gc, sim, catalog_table(top)):
         t.check_unknown()
     setup = PositioningSetup(
@@ -321,7 +324,7 @@ def _positioning_setup(data: dict[str, Any], source: str, nc_checked: bool = Tru
         feed_per_min=feed, datum=datum, trigger=trigger, environment=environment, devices=devices,
         dialect=dialect, program_number=program_number,
         max_deviation=max_dev, simulation=simulation, long_axis=long_axis, tolerance=tolerance,
-        scenario=scenario, **text,
+        scenario=scenario, compensation=compensation, **text,
     )
     if explicit is not None:  # generated targets follow the rule by construction
         span = end - start if end is not None and axis_type == "linear" else None

@@ -11,6 +11,7 @@ from mocks.faults import FaultPlan
 from mocks.interferometer import InterferometerEmulator, ModbusServerThread, start_controller
 from mocks.machine_axis import AxisErrors, InPositionRegisters, LinearOptics, MachineAxis, MachineStop
 from mocks.world import Environment
+from processing.compensation.stage import Compensator, ControllerTable
 from processing.environment import EnvironmentSettings
 from saved_runs.errors import UserError
 
@@ -73,7 +74,8 @@ def optics_of(setup: PositioningSetup) -> LinearOptics:
 
 def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bool = True,
                             faults: str | None = None, start_at: int = 0, device_id: int = 1,
-                            scenario: Scenario | None = None) -> SimulatedMachine:
+                            scenario: Scenario | None = None,
+                            compensation: ControllerTable | None = None) -> SimulatedMachine:
     """Start a machine axis that runs exactly the set-up's cycle, read by a Modbus TCP controller
     (at unit id ``device_id``).
 
@@ -86,6 +88,9 @@ def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bo
     ``scenario``: a positioning scenario replaces the set-up's ``[simulation]`` errors and conditions
     by its effects, conditions, angular motion and noise (its time-dependent effects run on the wall
     clock, as the run's ``time_s`` does).
+    ``compensation``: the table the simulated controller applies (processing/compensation/stage.py):
+    its correction is added to every commanded position, the direction from the commanded motion,
+    the axis referenced (homed) before the program starts.
     """
     plan = parse_faults(faults)
     stops = [MachineStop(s.position, s.target_index, s.run, s.direction) for s in setup.stops()]
@@ -95,15 +100,19 @@ def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bo
         model: dict[str, Any] = {**scenario_axis(scenario, noise), "wall_clock_effects": True}
     else:
         model = {"errors": axis_errors(setup, noise), "environment": _environment(setup.simulation)}
+    compensator = Compensator(compensation, start=setup.datum) if compensation is not None else None
     axis = MachineAxis(stops, rotary=setup.axis_type == "rotary", feed_per_min=setup.feed_per_min,
                        dwell_s=setup.trigger.dwell_s, handshake=HANDSHAKE[setup.trigger.mode], datum=setup.datum,
                        seed=seed, optics=optics_of(setup), bits_left_set=setup.simulation.plc_bits_left_set,
-                       program_start_s=setup.simulation.program_start_s, **model)
+                       program_start_s=setup.simulation.program_start_s, compensator=compensator, **model)
     emulator = InterferometerEmulator(axis, word_order=setup.devices.word_order, faults=plan,  # type: ignore[arg-type]
                                       extension=InPositionRegisters(axis, setup.devices.word_order))
     if start_at:
         measured = [k for k, s in enumerate(stops) if s.target_index]
         axis.index = measured[min(start_at, len(measured) - 1)] - 1  # restart: the next block is that target
         axis.commanded = stops[axis.index].position
+        if compensator is not None:  # the controller's state as the program left it there: replay the moves
+            for stop in stops[:axis.index + 1]:
+                axis.correction = compensator.move_to(stop.position)
     modbus = start_controller(emulator, device_id=device_id)
     return SimulatedMachine(axis, modbus.url, modbus, plan)

@@ -42,7 +42,9 @@ def simulate_run(scenario: Scenario | Path | str, out: Path | str, *, seed: int 
     if scenario.kind == "positioning":
         assert scenario.positioning is not None
         rows = simulate_positioning_points(scenario, seed, noise)
-        header = {**scenario.positioning.header(), "setup_source": scenario.setup_source}
+        # the simulated axis has no controller compensation (run.json compensation: none, not "not recorded")
+        header = {**scenario.positioning.header(), "setup_source": scenario.setup_source,
+                  "compensation": {"active": False}}
     else:
         assert scenario.straightness is not None
         rows = simulate_straightness_points(scenario, seed, noise)

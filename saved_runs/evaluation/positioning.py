@@ -22,6 +22,7 @@ from processing.iso230_2 import (
 )
 
 from ..errors import RunFormatError
+from ..store.compensation import compensation_text, run_compensation
 from ..store.plan import check_positioning_points
 from ..store.reader import LoadedRun
 from .limits import OutOfRange, out_of_range, out_of_range_dict, print_out_of_range
@@ -53,6 +54,7 @@ class PositioningEvaluation:
             "vdi3441": r.pop("vdi3441"),
             "environment": self.environment.to_dict(),
             "deviation": "x_ij = actual - target (after environmental compensation)",
+            "controller_compensation": run_compensation(self.run.meta),
             **r,
             **verdict_dict(self.verdict),
             **out_of_range_dict(self.out_of_range),
@@ -77,6 +79,7 @@ class PositioningEvaluation:
                   f"{_fmt(t.reversal):>9} {_fmt(t.s_up):>8} {_fmt(t.s_down):>8} {_fmt(t.R_i):>8}", file=stream)
         if len(pt) > MAX_TARGET_ROWS:
             print(f"  ... {len(pt) - MAX_TARGET_ROWS} more targets in results/positioning.csv", file=stream)
+        print(compensation_text(run_compensation(self.run.meta)), file=stream)
         env = self.environment
         print(f"environment: {env.reason}" + (f" ({env.equation_name})" if env.equation_name else ""), file=stream)
         for q in AXIS_QUANTITIES:

@@ -11,7 +11,7 @@ measured point; without them it can only use the means and says so.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +24,7 @@ from processing.compensation.tables import ErrorTable, fit_curves, tabulate
 from .. import nc_text
 from ..errors import UserError
 from .axis import axis_data
+from .carto import active_table, without_active_table
 from .grid import table_grid
 from .options import FORMATS, MODEL_NAMES, SUFFIX, ExportOptions
 from .residuals import (
@@ -59,6 +60,7 @@ class Export:
     scores: TableScores | None = None
     residuals: dict[str, Any] = field(default_factory=dict)
     cost: list[str] = field(default_factory=list)
+    combined_with: dict[str, Any] | None = None  # run.json compensation of the table active in the run (CARTO)
 
     @property
     def grid_text(self) -> str:
@@ -94,6 +96,8 @@ class Export:
             "comparison": rows,
             "residuals": residuals_json(self.residuals, u),
             "notes": list(self.notes),
+            "combined_with": None if self.combined_with is None else {
+                k: self.combined_with.get(k) for k in ("file", "format", "sha256")},
         }
         if self.scores is not None:
             out["table_as_written"] = figures_json(self.scores.written, u)
@@ -192,7 +196,15 @@ def export_run(run_dir: Path | str, options: ExportOptions, *, accept_out_of_ran
     evaluation = evaluate_run(run, accept_out_of_range=accept_out_of_range)
     setup = run.meta.get("setup") or {}
     axis = str(setup.get("axis_name") or run.meta.get("axis") or "X")
-    return run, build_export(evaluation.result, options, axis=axis, deviations=evaluation.deviations)
+    # a run measured with a table active: the old table plus the measured difference (CARTO's rule)
+    active, note = active_table(run.meta, options, options.axis or axis)
+    result, deviations = evaluation.result, evaluation.deviations
+    if active is not None:
+        result, deviations = without_active_table(result, deviations, active)
+    export = build_export(result, options, axis=axis, deviations=deviations)
+    if note:
+        export.notes.insert(0, note)
+    return run, replace(export, combined_with=active.record if active is not None else None)
 
 
 def export_path(run_path: Path, export: Export, fmt: str) -> Path:

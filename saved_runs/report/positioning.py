@@ -15,6 +15,7 @@ from ..export.build import build_export
 from ..export.options import ExportOptions
 from ..export.residuals import CV_LABELS
 from ..results.positioning import positioning_figure
+from ..store.compensation import compensation_text, run_compensation
 from .common import verdict_section
 from .html import HtmlPage, figure_png
 
@@ -50,6 +51,8 @@ def positioning_sections(page: HtmlPage, evaluation: PositioningEvaluation) -> N
         ("directions", r.directions),
         ("coverage factor k", r.k),
         ("deviation", f"x_ij = actual − target, {unit}, after environmental compensation"),
+        ("controller compensation", compensation_text(run_compensation(evaluation.run.meta))
+         .removeprefix("controller compensation: ")),
     ], digits=3)
     page.image(figure_png(positioning_figure(evaluation.result, evaluation.deviations)),
                f"Top: every approach (thin lines; blue ↑, red ↓), the mean per direction with its "

@@ -2,6 +2,7 @@
 
     guideway acquire straightness --setup SETUP.toml --out RUN_DIR [--simulate] [--auto]
     guideway acquire positioning --setup SETUP.toml --out RUN_DIR [--simulate] [--auto]
+        [--compensation FILE [--compensation-format F] [--comp-file-type 0|1]]
     guideway acquire [KIND] --resume RUN_DIR [--simulate] [--auto]     (or: KIND --out RUN_DIR --resume)
 
 The plain-terminal operator asks on stdin/stdout (Enter = capture) unless
@@ -15,6 +16,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from acquisition.setup.compensation import COMPENSATION_FORMATS
+
 from . import seed as seed_arg
 
 KINDS = ("straightness", "positioning")
@@ -26,6 +29,10 @@ def run(args: argparse.Namespace) -> int:
     from saved_runs.toml_file import read_toml
 
     resume = args.resume is not None
+    compensation = args.compensation is not None or args.compensation_format is not None or (
+        args.comp_file_type is not None)
+    if compensation and resume:
+        raise SetupError("--compensation applies to a new run; a resumed run keeps the table it started with")
     if isinstance(args.resume, Path):
         if args.out is not None and args.out != args.resume:
             raise SetupError("--resume RUN_DIR and --out name different directories; give one of them")
@@ -47,6 +54,8 @@ def run(args: argparse.Namespace) -> int:
     sim = SimOptions(args.seed, not args.no_noise, args.faults,
                      scenario=str(args.scenario.resolve()) if args.scenario else None) if args.simulate else None
     source = read_toml(args.setup) if args.setup is not None else None
+    if compensation:
+        source = _with_compensation(args, source)
     res = acquire(args.kind, source, str(args.setup), args.out, simulate=sim, auto=args.auto, resume=resume,
                   stream=sys.stdout, stdin=sys.stdin)  # this call's streams, not import time's
     status = res.outcome.exit_status
@@ -59,6 +68,28 @@ def run(args: argparse.Namespace) -> int:
         return 1
     print(f"process it with: guideway process {args.out}")
     return 0
+
+
+def _with_compensation(args: argparse.Namespace, source: dict | None) -> dict:
+    """The set-up with ``[compensation]`` from ``--compensation FILE`` (replacing the set-up's own);
+    ``--compensation-format`` / ``--comp-file-type`` alone complete the set-up's table."""
+    from saved_runs.errors import SetupError
+
+    if source is None:
+        raise SetupError("--compensation needs --setup SETUP.toml")
+    if args.kind != "positioning":
+        raise SetupError("--compensation is for positioning runs (the controller's compensation table)")
+    table = dict(source.get("compensation") or {})
+    if args.compensation is not None:
+        table = {"file": str(args.compensation.resolve())}
+    elif not table:
+        raise SetupError("--compensation-format / --comp-file-type need --compensation FILE (or a [compensation] "
+                         "table in the set-up)")
+    if args.compensation_format is not None:
+        table["format"] = args.compensation_format
+    if args.comp_file_type is not None:
+        table["comp_file_type"] = args.comp_file_type
+    return {**source, "compensation": table}
 
 
 def register(sub) -> None:  # noqa: ANN001
@@ -78,4 +109,12 @@ def register(sub) -> None:  # noqa: ANN001
     a.add_argument("--scenario", type=Path, default=None, metavar="FILE",
                    help="--simulate: scenario file whose effects the simulated devices apply (docs/diagnosis.md; "
                         "default: the set-up's [simulation] scenario)")
+    a.add_argument("--compensation", type=Path, default=None, metavar="FILE",
+                   help="positioning: the compensation table active in the controller (recorded in run.json; with "
+                        "--simulate the simulated controller applies it as that controller does); replaces the "
+                        "set-up's [compensation]")
+    a.add_argument("--compensation-format", choices=COMPENSATION_FORMATS, default=None,
+                   help="the table's controller (default: from the file's content)")
+    a.add_argument("--comp-file-type", type=int, choices=(0, 1), default=None,
+                   help="LinuxCNC COMP_FILE_TYPE of the table (0: actual positions, 1: trims); needed for linuxcnc")
     a.set_defaults(func=run)
