@@ -426,7 +426,7 @@ def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect]
         if missing:
             raise ValueError(f"the model's {e.label} cannot be evaluated on this run "
                              f"({NEEDS_TEXT.get(missing[0], f'{missing[0]} not recorded')}); take it out of the model")
-    baseline = fit_model(obs, model)
+    baseline = fit_model(obs, model, ar1_history=rule.ar1_history)
     base_noise = noise_estimate(obs, baseline)
     regions = disagreement(obs, baseline.residual, base_noise.sigma_um, rule.region_alpha)
     not_testable: dict[str, str] = {}
@@ -564,7 +564,8 @@ def _forward(obs: Observations, start: Fit, rule: Rule, not_testable: dict[str, 
             if best is None:
                 break
         assert best.fit is not None
-        current = fit_model(obs, best.fit.effects)  # all wavelengths refined, standard errors
+        # all wavelengths refined; standard errors for the AR(1) errors the tests were whitened for
+        current = fit_model(obs, best.fit.effects, ar1_history=rule.ar1_history)
         steps.append(Step(best, current, noise_estimate(obs, current), tuple(tested)))
     return steps, tuple(tested)
 
