@@ -242,10 +242,14 @@ def fit_model(obs: Observations, effects: tuple[Effect, ...] | list[Effect], *,
                                      serial.point_interval_s(obs.values.get("time_min")))
     ar1 = None
     if phi > 0.0:
-        # σ² of the AR(1) errors (marginal) from the generalised least-squares fit: its whitened residual has the
-        # innovations' variance σ²(1 − φ²)
-        rss_w = solve(serial.prais_winsten(x, order, phi), serial.prais_winsten(target, order, phi))[1]
-        ar1 = (order, phi, rss_w / (1.0 - phi * phi))
+        # the marginal σ² of AR(1) errors by the moments φ̂ is matched with (serial.expected_lag1): the residual
+        # e = M u has E[eᵀe] = σ² tr(MR) = σ² (n − tr(QᵀRQ)), Q an orthonormal basis of the design in time order
+        q = orthonormal_basis(x)[order]
+        left = obs.n - float(np.sum(q * serial.r_times(q, phi)))
+        if left > 0:
+            ar1 = (order, phi, rss / left)
+        else:
+            phi = 0.0
     se = _standard_errors(obs, tuple(fitted), rss, n_params, ar1) if standard_errors else tuple({} for _ in fitted)
     return Fit(tuple(fitted), residual, rss, n_params, x, target, se, phi)
 
@@ -275,10 +279,11 @@ def _standard_errors(obs: Observations, effects: tuple[Effect, ...], rss: float,
     """σ² (JᵀJ)⁻¹ with J the derivatives of the model with respect to every fitted parameter
     (nuisance included) at the fit, σ² = RSS / (n − p).
 
-    ``ar1`` = (time order, φ, RSS of the whitened fit / (1 − φ²)): the errors are AR(1) in time order, and the
-    covariance of the least-squares values is the sandwich (JᵀJ)⁻¹ JᵀΣJ (JᵀJ)⁻¹ with Σ_ij = σ² φ^|i−j|,
-    σ² = RSS_w / ((n − p)(1 − φ²)).  The ordinary σ²(JᵀJ)⁻¹ takes the correlated errors for independent ones:
-    for a slow effect about (1 − φ)/(1 + φ) of the variance (a standard error 0.23 of the true one at φ 0.9)."""
+    ``ar1`` = (time order, φ, σ²): the errors are AR(1) in time order of marginal variance σ², and the
+    covariance of the least-squares values is the sandwich (JᵀJ)⁻¹ JᵀΣJ (JᵀJ)⁻¹ with Σ_ij = σ² φ^|i−j|.  The
+    ordinary σ²(JᵀJ)⁻¹ takes the correlated errors for independent ones: for a slow effect about (1 − φ)/(1 + φ)
+    of the variance (a standard error 0.23 of the true one at φ 0.9); for one that changes with every sweep of
+    the travel (a function of the position) it can be larger than the true one."""
     blocks, owners = [obs.nuisance], []
     for i, e in enumerate(effects):
         if e.free:
@@ -296,9 +301,9 @@ def _standard_errors(obs: Observations, effects: tuple[Effect, ...], rss: float,
     if ar1 is None:
         cov = inv * (rss / dof)
     else:
-        order, phi, sigma2_dof = ar1
+        order, phi, sigma2 = ar1
         jo = js[order]
-        cov = inv @ (jo.T @ serial.r_times(jo, phi)) @ inv * (sigma2_dof / dof)
+        cov = inv @ (jo.T @ serial.r_times(jo, phi)) @ inv * sigma2
     se_all = np.sqrt(np.clip(np.diag(cov), 0, None)) / norms
     tables: dict[int, list[float]] = {}
     for (i, name), s in zip(owners, se_all[obs.nuisance.shape[1]:], strict=True):

@@ -325,8 +325,12 @@ def correlation_note(ch: ChannelDiagnosis) -> str:
     """Said whenever the channel's tests were whitened for an estimated AR(1) coefficient: how strong it is, where
     it comes from (the run alone, or pooled with the machine's earlier runs), what the tests and the ± rest on,
     what that does to the tests of slow effects (the measured figures of docs/diagnosis.md) and, from the run
-    alone, the remedy.  Empty when no test used a correlation (φ̂ below detection)."""
-    used = [t.ar1_phi for t in (*(s.test for s in ch.steps), *ch.last_round) if t.ar1_phi > 0]
+    alone, the remedy.  Empty when no test in the final model used a correlation (φ̂ below detection).
+
+    The tests in the final model (every candidate of the last round, every added effect tested in its place) are
+    the ones whose φ̂ is the noise's: an early step's φ̂ also holds the effects still missing from its model."""
+    final_tests = [*ch.last_round, *(s.in_final for s in ch.steps if s.in_final is not None)]
+    used = [t.ar1_phi for t in final_tests if t.ar1_phi > 0]
     if not used:
         return ""
     phi = ch.final.se_ar1_phi or max(used)
