@@ -22,8 +22,10 @@ with the estimates of earlier runs of the machine when the rule carries them).
 
 The best significant candidate (lowest BIC; a physical effect before a free table, which is
 tried only when no physical effect is significant) is added and the loop repeats.  A backward
-pass then drops an added effect that is not significant in the final model, or swaps it for a
-candidate that explains more in its place.  Ambiguity is judged in the final model: a
+pass then drops an added effect that is not significant in the final model, swaps it for a
+candidate that explains more in its place, or, when it is rivalled, replaces it by a pair of
+candidates that lowers the BIC by the margin with both significant (one effect can mimic the sum
+of two: a growth for a sag and a dead path).  Ambiguity is judged in the final model: a
 candidate that, in place of one of its free effects, is significant, comes within 10 of its BIC
 and adds nothing significant once the effect is in, explains the same residual — both are
 reported as ambiguous and the step is not named (a candidate strictly more general than the
@@ -87,6 +89,10 @@ class Rule:
                 "resolution_um": self.resolution_um, "position_parameters_max_share": self.position_share,
                 "cv_positions": "position-only effects must lower the RMSE of predicting held-out positions",
                 "excluded": list(self.excluded),
+                "backward": f"an added effect is dropped when not significant in the final model, swapped for a "
+                            f"candidate of lower BIC in its place, or, when rivalled, replaced by the best pair of "
+                            f"its {PAIR_TOP} best rivals that lowers the BIC by at least the margin with both "
+                            "significant",
                 "ar1_history": [e.to_dict() for e in self.ar1_history]}
 
 
