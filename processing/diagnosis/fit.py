@@ -18,7 +18,7 @@ import numpy as np
 from scipy import optimize
 
 from ..effects import Effect
-from . import basis
+from . import basis, serial
 from .observations import Observations
 
 RANK_RTOL = 1e-6  # columns (unit norm) closer to collinear than this count as dependent
@@ -36,6 +36,8 @@ class Fit:
     design: np.ndarray  # nuisance and free columns at the fitted wavelengths
     target: np.ndarray  # the observations minus the fixed contributions
     se: tuple[dict[str, float | tuple[float, ...]], ...]  # standard error of every free parameter
+    # the AR(1) coefficient of the errors in time order the standard errors are corrected for (0: independent)
+    se_ar1_phi: float = 0.0
 
     @property
     def n(self) -> int:
@@ -187,13 +189,17 @@ def free_wavelength(e: Effect) -> bool:
 
 # -- the fit ---------------------------------------------------------------------------------------------
 def fit_model(obs: Observations, effects: tuple[Effect, ...] | list[Effect], *,
-              refine: set[int] | None = None, standard_errors: bool = True) -> Fit:
+              refine: set[int] | None = None, standard_errors: bool = True,
+              ar1_history: tuple[serial.Ar1Estimate, ...] | None = None) -> Fit:
     """Fit the free parameters of ``effects`` (and the nuisance) to ``obs``.
 
     A free-wavelength periodic effect without a wavelength is searched over :func:`wavelength_grid`,
     one with a wavelength (a start value, or the last fit's) is refined near it; ``refine``: only those
     effects' wavelengths are searched or refined, the others are used as they are (a candidate tested
-    against a fitted model).  ``standard_errors=False`` skips them (candidate tests).
+    against a fitted model).  ``standard_errors=False`` skips them (candidate tests).  With ``ar1_history``
+    (a tuple, possibly empty: the earlier runs' estimates) the standard errors are those of the fitted values
+    under AR(1) errors in time order, φ estimated from the fit's residual as the tests estimate it
+    (:func:`serial.ar1_coefficient`); None: the ordinary ones, for independent errors.
     """
     effects = tuple(effects)
     target = obs.y_um - fixed_part(effects, obs)
@@ -229,8 +235,23 @@ def fit_model(obs: Observations, effects: tuple[Effect, ...] | list[Effect], *,
         pos += k
     residual = target - x @ coef
     n_params = rank + len(nonlinear)
-    se = _standard_errors(obs, tuple(fitted), rss, n_params) if standard_errors else tuple({} for _ in fitted)
-    return Fit(tuple(fitted), residual, rss, n_params, x, target, se)
+    phi = 0.0
+    if standard_errors and ar1_history is not None:
+        order = serial.time_order(obs.values, obs.n)
+        phi = serial.ar1_coefficient(residual[order], orthonormal_basis(x)[order], ar1_history,
+                                     serial.point_interval_s(obs.values.get("time_min")))
+    ar1 = None
+    if phi > 0.0:
+        # the marginal σ² of AR(1) errors by the moments φ̂ is matched with (serial.expected_lag1): the residual
+        # e = M u has E[eᵀe] = σ² tr(MR) = σ² (n − tr(QᵀRQ)), Q an orthonormal basis of the design in time order
+        q = orthonormal_basis(x)[order]
+        left = obs.n - float(np.sum(q * serial.r_times(q, phi)))
+        if left > 0:
+            ar1 = (order, phi, rss / left)
+        else:
+            phi = 0.0
+    se = _standard_errors(obs, tuple(fitted), rss, n_params, ar1) if standard_errors else tuple({} for _ in fitted)
+    return Fit(tuple(fitted), residual, rss, n_params, x, target, se, phi)
 
 
 def without_nuisance(cols: np.ndarray, nuisance: np.ndarray) -> np.ndarray:
@@ -252,10 +273,17 @@ def table_gauge(hats: np.ndarray, nuisance: np.ndarray, values: np.ndarray) -> n
     return values - null @ (null.T @ values)
 
 
-def _standard_errors(obs: Observations, effects: tuple[Effect, ...], rss: float, n_params: int
+def _standard_errors(obs: Observations, effects: tuple[Effect, ...], rss: float, n_params: int,
+                     ar1: tuple[np.ndarray, float, float] | None = None
                      ) -> tuple[dict[str, float | tuple[float, ...]], ...]:
-    """σ² (JᵀJ)⁺ with J the derivatives of the model with respect to every fitted parameter
-    (nuisance included) at the fit, σ² = RSS / (n − p)."""
+    """σ² (JᵀJ)⁻¹ with J the derivatives of the model with respect to every fitted parameter
+    (nuisance included) at the fit, σ² = RSS / (n − p).
+
+    ``ar1`` = (time order, φ, σ²): the errors are AR(1) in time order of marginal variance σ², and the
+    covariance of the least-squares values is the sandwich (JᵀJ)⁻¹ JᵀΣJ (JᵀJ)⁻¹ with Σ_ij = σ² φ^|i−j|.  The
+    ordinary σ²(JᵀJ)⁻¹ takes the correlated errors for independent ones: for a slow effect about (1 − φ)/(1 + φ)
+    of the variance (a standard error 0.23 of the true one at φ 0.9); for one that changes with every sweep of
+    the travel (a function of the position) it can be larger than the true one."""
     blocks, owners = [obs.nuisance], []
     for i, e in enumerate(effects):
         if e.free:
@@ -269,7 +297,13 @@ def _standard_errors(obs: Observations, effects: tuple[Effect, ...], rss: float,
     if dof <= 0 or not owners:
         return tuple(out)
     js, norms = _scaled(j)
-    cov = np.linalg.pinv(js.T @ js, rcond=1e-12, hermitian=True) * (rss / dof)
+    inv = np.linalg.pinv(js.T @ js, rcond=1e-12, hermitian=True)
+    if ar1 is None:
+        cov = inv * (rss / dof)
+    else:
+        order, phi, sigma2 = ar1
+        jo = js[order]
+        cov = inv @ (jo.T @ serial.r_times(jo, phi)) @ inv * sigma2
     se_all = np.sqrt(np.clip(np.diag(cov), 0, None)) / norms
     tables: dict[int, list[float]] = {}
     for (i, name), s in zip(owners, se_all[obs.nuisance.shape[1]:], strict=True):

@@ -22,8 +22,10 @@ with the estimates of earlier runs of the machine when the rule carries them).
 
 The best significant candidate (lowest BIC; a physical effect before a free table, which is
 tried only when no physical effect is significant) is added and the loop repeats.  A backward
-pass then drops an added effect that is not significant in the final model, or swaps it for a
-candidate that explains more in its place.  Ambiguity is judged in the final model: a
+pass then drops an added effect that is not significant in the final model, swaps it for a
+candidate that explains more in its place, or, when it is rivalled, replaces it by a pair of
+candidates that lowers the BIC by the margin with both significant (one effect can mimic the sum
+of two: a growth for a sag and a dead path).  Ambiguity is judged in the final model: a
 candidate that, in place of one of its free effects, is significant, comes within 10 of its BIC
 and adds nothing significant once the effect is in, explains the same residual — both are
 reported as ambiguous and the step is not named (a candidate strictly more general than the
@@ -87,6 +89,10 @@ class Rule:
                 "resolution_um": self.resolution_um, "position_parameters_max_share": self.position_share,
                 "cv_positions": "position-only effects must lower the RMSE of predicting held-out positions",
                 "excluded": list(self.excluded),
+                "backward": f"an added effect is dropped when not significant in the final model, swapped for a "
+                            f"candidate of lower BIC in its place, or, when rivalled, replaced by the best pair of "
+                            f"its {PAIR_TOP} best rivals that lowers the BIC by at least the margin with both "
+                            "significant",
                 "ar1_history": [e.to_dict() for e in self.ar1_history]}
 
 
@@ -426,7 +432,7 @@ def diagnose_channel(obs: Observations, model: tuple[Effect, ...] | list[Effect]
         if missing:
             raise ValueError(f"the model's {e.label} cannot be evaluated on this run "
                              f"({NEEDS_TEXT.get(missing[0], f'{missing[0]} not recorded')}); take it out of the model")
-    baseline = fit_model(obs, model)
+    baseline = fit_model(obs, model, ar1_history=rule.ar1_history)
     base_noise = noise_estimate(obs, baseline)
     regions = disagreement(obs, baseline.residual, base_noise.sigma_um, rule.region_alpha)
     not_testable: dict[str, str] = {}
@@ -564,7 +570,8 @@ def _forward(obs: Observations, start: Fit, rule: Rule, not_testable: dict[str, 
             if best is None:
                 break
         assert best.fit is not None
-        current = fit_model(obs, best.fit.effects)  # all wavelengths refined, standard errors
+        # all wavelengths refined; standard errors for the AR(1) errors the tests were whitened for
+        current = fit_model(obs, best.fit.effects, ar1_history=rule.ar1_history)
         steps.append(Step(best, current, noise_estimate(obs, current), tuple(tested)))
     return steps, tuple(tested)
 
@@ -592,9 +599,65 @@ def _backward(obs: Observations, final: Fit, n_model: int, rule: Rule) -> Fit | 
                 assert best.fit is not None
                 current, changed = best.fit, True
                 break
+            pair = None if table else _pair_in_place(obs, current, reduced, own, tests, rule)
+            if pair is not None:
+                current, changed = pair, True
+                break
         else:
             return current if changed else None
     return current
+
+
+PAIR_TOP = 4
+"""The pairs tried in place of an added effect are those among its ``PAIR_TOP`` best rivals (by their BIC in its
+place): 6 fits per added effect, where all pairs of the ~10 candidates would take 45."""
+
+
+def _pair_in_place(obs: Observations, current: Fit, reduced: Fit, own: CandidateTest, tests: list[CandidateTest],
+                   rule: Rule) -> Fit | None:
+    """Two candidates in place of an added effect: the forward selection adds one effect at a time, so one
+    whose signature resembles the sum of two others (a thermal growth P·t for a sag P² and a dead path whose
+    air index rises in time) can beat either of them alone and leave neither significant after it.  When the
+    effect is rivalled (another candidate is significant in its place), the pairs among its best ``PAIR_TOP``
+    rivals are fitted in its place; the best pair is taken when it lowers the BIC of the model by at least the
+    rule's margin (the whitened sums, φ from the pair's residual, as every test) and each of the two is
+    significant with the other in the model (the rule's test, as the backward pass asks of every added effect).
+    The fit with the pair, or None."""
+    rivals = [t for t in tests if t is not own and t.effect.type not in CATCH_ALL and t.fit is not None
+              and t.delta_bic < 0]
+    if not any(t.significant for t in rivals):
+        return None
+    rivals = rivals[:PAIR_TOP]  # tests are sorted by their BIC, best first
+    periodic_left = MAX_PERIODIC - sum(e.type == "periodic" for e in reduced.effects)
+    n = obs.n
+    tried: list[tuple[float, Fit, int]] = []
+    for i, a in enumerate(rivals):
+        for b in rivals[i + 1:]:
+            if (a.effect.type == "periodic") + (b.effect.type == "periodic") > periodic_left:
+                continue
+            base = len(reduced.effects)
+            try:
+                fit = fit_model(obs, (*reduced.effects, a.effect, b.effect), refine={base, base + 1},
+                                standard_errors=False)
+            except (ValueError, np.linalg.LinAlgError):
+                continue
+            _, rss_now, rss_pair = whitened_rss(obs, current, fit, rule.ar1_history)
+            gain = bic(rss_pair, n, fit.n_params) - bic(rss_now, n, current.n_params)
+            if gain <= -rule.bic_margin:
+                tried.append((gain, fit, base))
+    for _, fit, base in sorted(tried, key=lambda g: g[0]):
+        if all(_significant_in(obs, fit, base + m, rule) for m in (0, 1)):
+            return fit
+    return None
+
+
+def _significant_in(obs: Observations, fit: Fit, j: int, rule: Rule) -> bool:
+    """The ``j``-th effect of ``fit`` passes the rule tested in its place, the other effects in."""
+    reduced = _without(obs, fit, j)
+    cands = [c for c in candidate_effects(obs, reduced.effects)[0] if c.type not in rule.excluded]
+    fresh = Effect(fit.effects[j].type, _zeroed(fit.effects[j]), fit.effects[j].free)
+    test = test_candidate(obs, reduced, fresh, len(cands), rule)
+    return test is not None and test.significant
 
 
 def _indistinguishable(obs: Observations, final: Fit, j: int, rule: Rule

@@ -45,7 +45,7 @@ def lag1(r: np.ndarray) -> float:
     return float(r[1:] @ r[:-1]) / den if den > 0 else 0.0
 
 
-def _r_times(q: np.ndarray, phi: float) -> np.ndarray:
+def r_times(q: np.ndarray, phi: float) -> np.ndarray:
     """R(φ) q with R_ij = φ^|i−j| (rows in order), by a forward and a backward recursion."""
     fwd = signal.lfilter([1.0], [1.0, -phi], q, axis=0)
     bwd = signal.lfilter([1.0], [1.0, -phi], q[::-1], axis=0)[::-1]
@@ -65,7 +65,7 @@ def expected_lag1(q: np.ndarray, phi: float) -> float:
     design (``q``: its orthonormal basis, rows in order) and u AR(1) with coefficient φ:
     tr(M A M R) / tr(M R) = ((n−1)φ − 2 tr(QᵀARQ) + tr(QᵀAQ · QᵀRQ)) / (n − tr(QᵀRQ))."""
     n = q.shape[0]
-    rq = _r_times(q, phi)
+    rq = r_times(q, phi)
     qrq = q.T @ rq
     num = (n - 1) * phi - 2.0 * float(np.sum(_half_shift(q) * rq)) + float(np.sum((q.T @ _half_shift(q)) * qrq.T))
     den = n - float(np.trace(qrq))

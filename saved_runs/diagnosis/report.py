@@ -121,7 +121,9 @@ def channel_sections(page: HtmlPage, ch: ChannelDiagnosis) -> None:
         why = not_named_because(ch, s)
         verdict = f"{why}, not named" if why else "named"
         page.heading(f"Step {i}: + {s.test.effect.label} ({verdict})", 3)
-        page.paragraph(f"{format_params(s.effect, s.fit.se[-1])} (± one standard error). RMS "
+        under = (f", for errors correlated in time, AR(1) coefficient {s.fit.se_ar1_phi:.2f}"
+                 if s.fit.se_ar1_phi > 0 else "")
+        page.paragraph(f"{format_params(s.effect, s.fit.se[-1])} (± one standard error{under}). RMS "
                        f"{_rms(before):.4f} → {s.fit.rms_um:.4f} µm, max {np.max(np.abs(before)):.4f} → "
                        f"{s.fit.max_um:.4f} µm.")
         page.image(figure_png(residual_figure(o, before, s.fit.residual, f"Step {i}: + {s.test.effect.label}")),

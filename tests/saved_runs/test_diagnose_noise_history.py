@@ -130,15 +130,40 @@ def test_diagnose_noise_from_on_the_command_line(tmp_path: Path) -> None:
         one_line_error(guideway("diagnose", str(run), "--noise-from", *args), says)
 
 
+def correlation_notes(d) -> list[str]:
+    return [n for n in d.notes if "correlated in time (AR(1) coefficient" in n]
+
+
 def test_a_strong_correlation_from_one_run_is_said_with_its_remedy(tmp_path: Path) -> None:
-    """φ 0.9 from the run alone: a note says the slow effects' tests are less reliable and names --noise-from /
-    --noise-history; not with the earlier runs given, nor at φ 0.3 (below the 0.8 it is said from)."""
+    """φ 0.9 from the run alone: a note says the slow effects' tests are less reliable (the measured figures) and
+    names --noise-from / --noise-history; with the earlier runs given the note says the coefficient is pooled, and
+    gives no remedy."""
     run, earlier = machine_runs(tmp_path, 7, 0.9)
-    said = [n for n in diagnose_run(run).notes if "strongly correlated in time" in n]
-    assert len(said) == 1 and "--noise-history N" in said[0] and "from this run alone" in said[0]
-    assert not [n for n in diagnose_run(run, noise_from=earlier).notes if "strongly correlated" in n]
+    d = diagnose_run(run)
+    (said,) = correlation_notes(d)
+    assert "strongly correlated in time" in said and "--noise-history N" in said and "from this run alone" in said
+    assert "about 2 of 100" in said
+    assert f"AR(1) coefficient {d.primary.final.se_ar1_phi:.2f}, from this run alone" in said
+    (pooled,) = correlation_notes(diagnose_run(run, noise_from=earlier))
+    assert "pooled from this run and 4 earlier run(s)" in pooled and "--noise-history" not in pooled
+
+
+def test_the_correlation_note_is_said_whenever_the_tests_used_an_estimated_coefficient(tmp_path: Path) -> None:
+    """Issue 25: not only from 0.8 on.  φ 0.3 (seen on 210 points: φ̂·√n ≈ 4 > 2.33): the note, not "strongly",
+    with the coefficient the ± rest on, the range the tests were whitened for (their evidence's ar1_phi) and the
+    remedy; independent errors (φ 0, nothing detected, no test whitened): no note."""
     weak, _ = machine_runs(tmp_path, 8, 0.3)
-    assert not [n for n in diagnose_run(weak).notes if "strongly correlated" in n]
+    d = diagnose_run(weak)
+    (said,) = correlation_notes(d)
+    ch = d.primary
+    phis = [t.ar1_phi for t in ch.last_round]
+    assert 0.1 < ch.final.se_ar1_phi < 0.5 and min(phis) > 0
+    assert "strongly" not in said and "--noise-history N" in said
+    assert f"correlated in time (AR(1) coefficient {ch.final.se_ar1_phi:.2f}, from this run alone)" in said
+    assert f"({min(phis):.2f} … {max(phis):.2f})" in said
+    white, _ = machine_runs(tmp_path, 9, 0.0)
+    d = diagnose_run(white)
+    assert all(t.ar1_phi == 0 for t in d.primary.last_round) and correlation_notes(d) == []
 
 
 def test_an_earlier_run_of_another_axis_is_used_with_a_note(tmp_path: Path) -> None:
