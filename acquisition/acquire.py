@@ -29,7 +29,7 @@ from saved_runs.store.lock import run_writer_lock
 from saved_runs.store.writer import RunStore
 
 from . import inposition  # noqa: F401 - registers the in-position message handlers
-from .cataloguing import add_completed_run, setup_catalog_url
+from .cataloguing import add_completed_run, setup_catalog_url, storable_setup_source
 from .engine import RunEngine, RunOutcome, Subscriber
 from .live import DeviationCallback, HeightCallback, LiveDeviation, LiveProfile
 from .messages import Log, Prompt
@@ -426,7 +426,8 @@ def run_positioning(
         if setup is None:
             raise SetupError("a new run needs --setup SETUP.toml")
         _check_hands_free(setup, auto, simulate, operator)
-        store = RunStore(out, {**setup.header(), **({"setup_source": setup_source} if setup_source else {})})
+        stored = {"setup_source": storable_setup_source(setup_source)} if setup_source else {}  # no password
+        store = RunStore(out, {**setup.header(), **stored})
         store.prepare()
     if simulate is not None and resume and "simulation" in store.meta:
         simulate = simulate.resumed(store.meta["simulation"])
