@@ -66,8 +66,8 @@ def test_an_acquisition_stores_and_prints_no_password(tmp_path: Path, refused_po
     assert f"cannot reach the PostgreSQL server 127.0.0.1:{refused_port}" in printed[4]  # catalog list
     for out in printed:
         assert SECRET not in out, out
-    found = [p for p in [*run.rglob("*"), tmp_path / "report.html"] if p.is_file() and SECRET.encode() in p.read_bytes()]
-    assert found == []
+    files = [p for p in [*run.rglob("*"), tmp_path / "report.html"] if p.is_file()]
+    assert len(files) > 3 and [p for p in files if SECRET.encode() in p.read_bytes()] == []
 
 
 def test_malformed_urls_with_a_password_are_told_without_it() -> None:
