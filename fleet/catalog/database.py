@@ -240,10 +240,11 @@ def _engine(u: Any) -> tuple[Any, _Watchdog | None]:
         # NullPool: a connection per use, so that none is reused after a silent network drop
         engine = sa.create_engine(u, connect_args=args, poolclass=sa.pool.NullPool)
     except ImportError as exc:
-        package = ("'guideway[postgresql]'" if u.drivername == "postgresql+psycopg"
-                   else exc.name or u.get_driver_name())
+        if u.drivername == "postgresql+psycopg":
+            raise UserError("a PostgreSQL catalogue needs the psycopg driver, which is not installed: "
+                            "pip install 'guideway[postgresql]'") from None
         raise UserError(f"a catalogue at {shown(u)} needs the {u.get_driver_name()} driver, which is not installed: "
-                        f"pip install {package}, or write postgresql://... for psycopg 3 "
+                        f"pip install {exc.name or u.get_driver_name()}, or write postgresql://... for psycopg 3 "
                         "(pip install 'guideway[postgresql]')") from None
     watchdog = _Watchdog(NO_ANSWER_S)
     watchdog.watch(engine)

@@ -70,6 +70,16 @@ def test_bad_urls_are_one_line(url: str, says: str) -> None:
         one_line_error(guideway(*command, "--catalog", url), says)
 
 
+def test_a_missing_psycopg_is_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
+    import sys
+
+    for name in [m for m in sys.modules if m == "psycopg" or m.startswith("psycopg.")]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "psycopg", None)  # import psycopg: ImportError, as when not installed
+    one_line_error(guideway("catalog", "list", "--catalog", "postgresql://u@calib/db"),
+                   "needs the psycopg driver, which is not installed: pip install 'guideway[postgresql]'")
+
+
 def test_a_schema_version_that_is_no_number(catalog_url: str, tmp_path: Path) -> None:
     write_run(tmp_path / "runs", "a", summary=straightness_summary(5.0, 0.2))
     assert guideway("catalog", "add", "--scan", tmp_path / "runs", "--catalog", catalog_url).returncode == 0
