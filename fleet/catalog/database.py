@@ -235,7 +235,9 @@ def _engine(u: Any) -> tuple[Any, _Watchdog | None]:
     if u.get_driver_name() in ("psycopg", "psycopg2"):  # libpq's: connecting, and a network gone silent
         args = {"connect_timeout": CONNECT_TIMEOUT_S, "keepalives": 1, "keepalives_idle": 10,
                 "keepalives_interval": 5, "keepalives_count": 3, "tcp_user_timeout": NO_ANSWER_S * 1000,
-                "options": f"-c statement_timeout={STATEMENT_TIMEOUT_S * 1000}"}
+                # after the URL's own ?options= (connect_args replace the URL's keys: keep them)
+                "options": " ".join([*([str(u.query["options"])] if "options" in u.query else []),
+                                     f"-c statement_timeout={STATEMENT_TIMEOUT_S * 1000}"])}
     try:
         # NullPool: a connection per use, so that none is reused after a silent network drop
         engine = sa.create_engine(u, connect_args=args, poolclass=sa.pool.NullPool)

@@ -212,6 +212,11 @@ def test_the_statement_timeout_and_the_socket_options_are_set(postgres_url: str)
         assert conn.execute(sa.text("SHOW statement_timeout")).scalar() == f"{database.STATEMENT_TIMEOUT_S}s"
         params = conn.connection.dbapi_connection.info.get_parameters()
     assert params["keepalives"] == "1" and params["tcp_user_timeout"] == str(database.NO_ANSWER_S * 1000)
+    # the URL's own server options are kept beside the statement timeout
+    with database.open_catalog(postgres_url + "?options=-c%20lock_timeout%3D5000") as cat, \
+            cat.engine.connect() as conn:
+        assert conn.execute(sa.text("SHOW lock_timeout")).scalar() == "5s"
+        assert conn.execute(sa.text("SHOW statement_timeout")).scalar() == f"{database.STATEMENT_TIMEOUT_S}s"
 
 
 def test_a_full_disk_at_the_first_add_leaves_no_catalogue_file(tmp_path: Path) -> None:
