@@ -160,8 +160,9 @@ class _Watchdog:
         event.listen(engine, "after_cursor_execute", lambda conn, *a: self.disarm(dbapi(conn)))
         event.listen(engine, "commit", lambda conn: self.arm(dbapi(conn)))
         event.listen(engine, "handle_error", lambda ctx: self.disarm_all())
+        # a connection given back is reset (a ROLLBACK sent to the server after a read), then checked in
+        event.listen(engine, "reset", lambda dbapi_conn, record, state: self.arm(dbapi_conn))
         event.listen(engine, "checkin", lambda dbapi_conn, record: self.disarm(dbapi_conn))
-        event.listen(engine, "reset", lambda dbapi_conn, record, state: self.disarm(dbapi_conn))
 
     def disarm_all(self) -> None:
         with self._lock:
@@ -239,8 +240,9 @@ def _engine(u: Any) -> tuple[Any, _Watchdog | None]:
                 "options": " ".join([*([str(u.query["options"])] if "options" in u.query else []),
                                      f"-c statement_timeout={STATEMENT_TIMEOUT_S * 1000}"])}
     try:
-        # NullPool: a connection per use, so that none is reused after a silent network drop
-        engine = sa.create_engine(u, connect_args=args, poolclass=sa.pool.NullPool)
+        # no pool_pre_ping: its ping bypasses the statement events, so the watchdog would not cover it (a
+        # connection that died in the pool fails at its next statement instead, with one line)
+        engine = sa.create_engine(u, connect_args=args)
     except ImportError as exc:
         if u.drivername == "postgresql+psycopg":
             raise UserError("a PostgreSQL catalogue needs the psycopg driver, which is not installed: "

@@ -219,6 +219,20 @@ def test_the_statement_timeout_and_the_socket_options_are_set(postgres_url: str)
         assert conn.execute(sa.text("SHOW statement_timeout")).scalar() == f"{database.STATEMENT_TIMEOUT_S}s"
 
 
+def test_no_watch_is_left_armed(postgres_url: str, tmp_path: Path) -> None:
+    """Every statement, commit and reset is watched only while it waits for the server: none is left armed
+    (a watch left armed would shut a connection kept in the pool)."""
+    from fleet.catalog.runs import add_runs, list_entries
+
+    write_run(tmp_path / "runs", "a", summary=straightness_summary(5.0, 0.2))
+    with database.open_catalog(postgres_url) as cat:
+        assert cat.watchdog is not None and not cat.watchdog._timers
+        assert [o.action for o in add_runs(cat, [tmp_path / "runs" / "a"])] in (["added"], ["unchanged"])
+        assert not cat.watchdog._timers
+        assert list_entries(cat)
+        assert not cat.watchdog._timers and not cat.watchdog.fired
+
+
 def test_a_full_disk_at_the_first_add_leaves_no_catalogue_file(tmp_path: Path) -> None:
     """A 8 KiB tmpfs: too small for the tables of a new catalogue (SQLite: "database or disk is full")."""
     mnt = tmp_path / "full"
