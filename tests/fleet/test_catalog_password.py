@@ -107,3 +107,19 @@ def test_the_runs_browser_title_hides_the_password(postgres_url: str, tmp_path: 
     reading, read = runs_title(tmp_path / "runs", url)
     assert SECRET not in reading and SECRET not in read
     assert ":***@" in read and "1 run(s) in the catalogue" in read, read
+
+
+def test_a_service_file_names_the_server_and_its_password(postgres_url: str, tmp_path: Path,
+                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """The documented way without a password in the URL: a libpq service file (docs/fleet.md)."""
+    import sqlalchemy as sa
+
+    u = sa.engine.make_url(postgres_url)
+    service = tmp_path / "pg_service.conf"
+    service.write_text(f"[calib]\nhost={u.host}\nport={u.port}\nuser={u.username}\ndbname={u.database}\n"
+                       f"password={SECRET}\n")
+    monkeypatch.setenv("PGSERVICEFILE", str(service))
+    write_run(tmp_path / "runs", "r1", summary=straightness_summary(5.0, 0.2))
+    res = guideway("catalog", "add", "--scan", tmp_path / "runs", "--catalog", "postgresql://?service=calib")
+    assert res.returncode == 0 and "1 added" in res.stdout, res.stderr
+    assert SECRET not in res.stdout + res.stderr
