@@ -59,9 +59,10 @@ class Entry:
     option_defaults: dict[str, Any] = field(default_factory=dict)  # those of guideway process for this run
 
     def non_default_options(self) -> dict[str, Any]:
-        """The options of the evaluation that differ from process' defaults (name -> value used)."""
+        """The options of the evaluation that differ from process' defaults (name -> value used; one the
+        summary does not state, None, is not known to differ)."""
         return {k: v for k, v in (self.options or {}).items() if k in self.option_defaults
-                and v != self.option_defaults[k]}
+                and v is not None and v != self.option_defaults[k]}
 
     def to_dict(self) -> dict[str, Any]:
         """The object of ``guideway catalog list --json``."""

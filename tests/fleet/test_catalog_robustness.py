@@ -46,7 +46,7 @@ def test_list_escapes_control_characters(catalog_url: str, tmp_path: Path) -> No
     assert guideway("catalog", "add", "--scan", tmp_path / "runs", "--catalog", catalog_url).returncode == 0
     res = guideway("catalog", "list", "--catalog", catalog_url)
     assert res.returncode == 0, res.stderr
-    assert "\x1b" not in res.stdout and len(res.stdout.splitlines()) == 2  # the entry and its options line
+    assert "\x1b" not in res.stdout and len(res.stdout.splitlines()) == 1  # one entry, one line
     assert "m\\x1b[2J\\x1b[31mred" in res.stdout and "X\\nforged line" in res.stdout
     # --json keeps the names as they are (JSON escapes them itself)
     assert listed(catalog_url)[0]["axis"] == "X\nforged line"
