@@ -306,7 +306,7 @@ def _create_sqlite(u: Any) -> None:
     or broken file that the next command takes for a catalogue)."""
     if u.database in (None, "", ":memory:"):
         return
-    path = Path(u.database).expanduser()
+    path = Path(u.database)  # as SQLite opens it
     if path.exists():
         return
     engine, _ = _engine(u)  # makes the folder, with its one-line error
