@@ -19,7 +19,7 @@ import sqlalchemy as sa
 
 from saved_runs.errors import UserError
 
-from .config import configured_url, masked_url
+from .config import HIDDEN, configured_url, masked_url
 
 SCHEMA_VERSION = 2  # raise it with every change of the tables below (and say in docs/fleet.md what changed)
 CONNECT_TIMEOUT_S = 10  # a PostgreSQL server that does not answer: give up after this long
@@ -190,6 +190,7 @@ class Catalog:
     url: str
     where: str = ""
     watchdog: _Watchdog | None = field(default=None, repr=False)
+    secret: str | None = field(default=None, repr=False)  # the URL's password: never in a message
 
     @property
     def dialect(self) -> str:
@@ -210,10 +211,10 @@ class Catalog:
                                 "went away); check the network and the server and run the command again (what was "
                                 "written before stays)") from None
             if self.dialect == "sqlite":
-                raise UserError(f"{where} failed: {_first_line(exc)}; check the free space of its disk and that "
-                                "you may write the file, and run the command again (what was written before "
-                                "stays)") from None
-            raise UserError(f"the catalogue at {where} failed: {_first_line(exc)}; check the "
+                raise UserError(f"{where} failed: {_first_line(exc, self.secret)}; check the free space of its "
+                                "disk and that you may write the file, and run the command again (what was written "
+                                "before stays)") from None
+            raise UserError(f"the catalogue at {where} failed: {_first_line(exc, self.secret)}; check the "
                             "server and run the command again (what was written before stays)") from None
 
 
@@ -258,9 +259,12 @@ def _engine(u: Any) -> tuple[Any, _Watchdog | None]:
 ASYNC_DRIVERS = ("asyncpg", "psycopg_async", "aiosqlite")
 
 
-def _first_line(exc: BaseException) -> str:
+def _first_line(exc: BaseException, secret: str | None = None) -> str:
+    """The first line of a driver's error, with the URL's password (``secret``) as *** should the driver quote
+    it (a connection string it could not read)."""
     text = str(getattr(exc, "orig", None) or exc).strip().splitlines()
-    return text[0] if text else exc.__class__.__name__
+    line = text[0] if text else exc.__class__.__name__
+    return line.replace(secret, HIDDEN) if secret else line
 
 
 def open_catalog(url: str | None = None, *, create: bool = True) -> Catalog:
@@ -276,7 +280,7 @@ def open_catalog(url: str | None = None, *, create: bool = True) -> Catalog:
     if create and u.get_backend_name() == "sqlite":
         _create_sqlite(u)
     engine, watchdog = _engine(u)
-    cat = Catalog(engine, shown(u), _where(u), watchdog)
+    cat = Catalog(engine, shown(u), _where(u), watchdog, u.password)
     try:
         _prepare(engine, create)
     except UserError:
@@ -288,14 +292,14 @@ def open_catalog(url: str | None = None, *, create: bool = True) -> Catalog:
             raise UserError(f"no answer from {_where(u)} for {watchdog.seconds:g} s (the network or the server went "
                             "away); check the network and the server and run the command again") from None
         if u.get_backend_name() == "sqlite":
-            raise UserError(f"cannot open {_where(u)} ({_first_line(exc)}); check that the file is a "
+            raise UserError(f"cannot open {_where(u)} ({_first_line(exc, u.password)}); check that the file is a "
                             "guideway catalogue and that you may read and write it") from None
-        raise UserError(f"cannot reach {_where(u)} ({_first_line(exc)}); check the host name and port, that the "
-                        "server is running and accepts connections from this machine, and the user, password "
-                        "and database in the URL") from None
+        raise UserError(f"cannot reach {_where(u)} ({_first_line(exc, u.password)}); check the host name and port, "
+                        "that the server is running and accepts connections from this machine, and the user, "
+                        "password and database in the URL") from None
     except sa.exc.DatabaseError as exc:
         engine.dispose()
-        raise UserError(f"{_where(u)} is not a usable catalogue ({_first_line(exc)}); check the URL "
+        raise UserError(f"{_where(u)} is not a usable catalogue ({_first_line(exc, u.password)}); check the URL "
                         "(docs/fleet.md)") from None
     return cat
 
@@ -325,7 +329,7 @@ def _create_sqlite(u: Any) -> None:
                 os.replace(new, path)
     except (sa.exc.DBAPIError, OSError) as exc:
         engine.dispose()
-        why = _first_line(exc) if isinstance(exc, sa.exc.DBAPIError) else (exc.strerror or str(exc))
+        why = _first_line(exc, u.password) if isinstance(exc, sa.exc.DBAPIError) else (exc.strerror or str(exc))
         raise UserError(f"cannot create {_where(u)} ({why}); check the free space of its disk and that you may "
                         "write there, and run the command again (no catalogue file was left)") from None
     finally:

@@ -123,3 +123,10 @@ def test_a_service_file_names_the_server_and_its_password(postgres_url: str, tmp
     res = guideway("catalog", "add", "--scan", tmp_path / "runs", "--catalog", "postgresql://?service=calib")
     assert res.returncode == 0 and "1 added" in res.stdout, res.stderr
     assert SECRET not in res.stdout + res.stderr
+
+
+def test_a_driver_error_quoting_the_password_is_told_without_it() -> None:
+    from fleet.catalog.database import _first_line
+
+    quoted = Exception(f'missing "=" after "{SECRET}" in connection info string\nmore')
+    assert _first_line(quoted, SECRET) == 'missing "=" after "***" in connection info string'
