@@ -29,7 +29,7 @@ from saved_runs.store.lock import run_writer_lock
 from saved_runs.store.writer import RunStore
 
 from . import inposition  # noqa: F401 - registers the in-position message handlers
-from .cataloguing import add_completed_run, setup_catalog_url
+from .cataloguing import add_completed_run, setup_catalog_url, storable_setup_source
 from .compensation import NO_COMPENSATION, ActiveCompensation, load_compensation
 from .engine import RunEngine, RunOutcome, Subscriber
 from .live import DeviationCallback, HeightCallback, LiveDeviation, LiveProfile
@@ -430,8 +430,8 @@ def run_positioning(
         _check_hands_free(setup, auto, simulate, operator)
         active = _compensation(setup, simulate, None)
         record = active.record(setup.unit, _applied_by(simulate)) if active is not None else NO_COMPENSATION
-        store = RunStore(out, {**setup.header(), **({"setup_source": setup_source} if setup_source else {}),
-                               "compensation": record})
+        stored = {"setup_source": storable_setup_source(setup_source)} if setup_source else {}  # no password
+        store = RunStore(out, {**setup.header(), **stored, "compensation": record})
         store.prepare()
     _print_compensation(active, simulate, stream)
     if simulate is not None and resume and "simulation" in store.meta:

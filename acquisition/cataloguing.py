@@ -18,6 +18,18 @@ def setup_catalog_url(source: dict[str, Any] | None) -> str | None:
     return url if isinstance(url, str) and url.strip() else None
 
 
+def storable_setup_source(source: dict[str, Any] | None) -> dict[str, Any] | None:
+    """A set-up's TOML structure as run.json keeps it (``setup_source``): its ``[catalog] url`` without a
+    password (run directories are archived and handed on; the password stays in ``~/.pgpass``,
+    ``PGPASSWORD`` or the set-up file)."""
+    url = setup_catalog_url(source)
+    if source is None or url is None:
+        return source
+    from fleet.catalog.config import url_without_password
+
+    return {**source, "catalog": {**source["catalog"], "url": url_without_password(url)}}
+
+
 def add_completed_run(run_dir: Path | str, setup_url: str | None, stream: TextIO) -> str | None:
     """Add ``run_dir`` to the configured catalogue; return the one line printed on ``stream`` (None: no
     catalogue configured)."""

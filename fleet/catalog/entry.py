@@ -12,6 +12,11 @@ Headline values (``values``), each ``{"value_um": v, "u_um": u}`` with ``u`` the
 * positioning: the ISO 230-2 values ``A``, ``A_up``, ``A_down``, ``E``, ``E_up``, ``E_down``, ``M``, ``R``,
   ``R_up``, ``R_down``, ``B`` (a magnitude, the largest |B_i|) and ``B_mean`` (the signed mean reversal, for
   a trend that sees its sign change); their uncertainty is not evaluated: u None.
+
+The verdict is the evaluation's, however the run was evaluated; the evaluation options of the values
+(``options``: ``method``, ``mc_trials`` of a straightness run, ``k``, ``edition`` of a positioning run,
+``accept_out_of_range``) are kept with the defaults of ``guideway process`` (``option_defaults``), so that a
+run processed with other options (a 20-trial first-order evaluation) is told from one evaluated as usual.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -52,11 +58,21 @@ class Entry:
     values: dict[str, dict[str, float | None]] = field(default_factory=dict)
     verdict: str | None = None
     note: str = ""
+    options: dict[str, Any] | None = None  # the evaluation options of ``values`` (None: not known, schema 1)
+    option_defaults: dict[str, Any] = field(default_factory=dict)  # those of guideway process for this run
+
+    def non_default_options(self) -> dict[str, Any]:
+        """The options of the evaluation that differ from process' defaults (name -> value used; one the
+        summary does not state, None, is not known to differ)."""
+        return {k: v for k, v in (self.options or {}).items() if k in self.option_defaults
+                and v is not None and v != self.option_defaults[k]}
 
     def to_dict(self) -> dict[str, Any]:
         """The object of ``guideway catalog list --json``."""
         return {"uid": self.uid, "path": self.path, "machine": self.machine, "axis": self.axis, "kind": self.kind,
-                "created": self.created, "status": self.status, "values": self.values, "verdict": self.verdict}
+                "created": self.created, "status": self.status, "values": self.values, "verdict": self.verdict,
+                "options": self.options, "option_defaults": self.option_defaults,
+                "non_default_options": self.non_default_options()}
 
 
 @dataclass(frozen=True)
@@ -66,6 +82,7 @@ class RunFiles:
     path: Path
     meta: dict[str, Any]
     content_hash: str
+    points: int = 0  # complete rows of points.csv (what an evaluation reads)
 
     @property
     def uid(self) -> str:
@@ -91,13 +108,16 @@ def read_run_files(run_dir: Path | str) -> RunFiles:
         raise RunUnreadable(f"{path}: run.json has no uid")
     digest.update(raw)
     digest.update(b"\0")
+    points = b""
     try:
-        digest.update((path / "points.csv").read_bytes())
+        points = (path / "points.csv").read_bytes()
+        digest.update(points)
     except FileNotFoundError:
         pass  # a run that failed before its first point: hashed as empty
     except OSError as exc:
         raise RunUnreadable(f"{path}: points.csv cannot be read ({exc.strerror or exc.__class__.__name__})") from None
-    return RunFiles(path, meta, digest.hexdigest())
+    # the rows under the header ended by a newline (the reader drops a partial last line)
+    return RunFiles(path, meta, digest.hexdigest(), max(points.count(b"\n") - 1, 0))
 
 
 def _mtime_ns(path: Path) -> int:
@@ -158,11 +178,16 @@ def headline_values(summary: dict[str, Any], meta: dict[str, Any]) -> dict[str, 
     return out
 
 
-def evaluated_summary(run_dir: Path) -> tuple[dict[str, Any] | None, str]:
-    """The ``process --json`` object of ``run_dir``: from results/summary.json if fresh, else evaluated now
-    with process' defaults; (None, why) when the run cannot be evaluated."""
+def has_tolerance(meta: dict[str, Any]) -> bool:
+    return bool((meta.get("setup") or {}).get("tolerance"))
+
+
+def evaluated_summary(run_dir: Path, meta: dict[str, Any] | None = None) -> tuple[dict[str, Any] | None, str]:
+    """The ``process --json`` object of ``run_dir``: from results/summary.json if fresh (and holding the verdict
+    of a run with a ``[tolerance]``: a straightness summary.json of an older guideway had none), else evaluated
+    now with process' defaults; (None, why) when the run cannot be evaluated."""
     summary = fresh_summary(run_dir)
-    if summary is not None:
+    if summary is not None and ("verdict" in summary or not has_tolerance(meta or {})):
         return summary, ""
     from saved_runs.evaluation.evaluate import process_run_dir  # pandas and friends only when something is evaluated
 
@@ -188,15 +213,40 @@ def utc_created(text: str) -> str:
     return when.strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
+_TRIALS = re.compile(r"(\d+) trials")
+
+
+def evaluation_options(summary: dict[str, Any], points: int) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The options a ``process --json`` object was evaluated with, and process' defaults for the run
+    (``points``: its rows, on which the default number of Monte Carlo trials depends)."""
+    from saved_runs.evaluation.options import DEFAULT_EDITION, DEFAULT_K, DEFAULT_METHOD, default_mc_trials
+
+    accepted = bool(summary.get("out_of_range_accepted"))
+    if summary.get("kind") == "straightness":
+        unc = summary.get("uncertainty_um") or {}
+        trials: int | None = 0  # no Monte Carlo: --mc-trials 0
+        if "straightness" in unc:
+            found = _TRIALS.search(str(unc.get("straightness_method") or ""))
+            trials = int(found[1]) if found else None
+        used = {"method": summary.get("method"), "mc_trials": trials, "accept_out_of_range": accepted}
+        return used, {"method": DEFAULT_METHOD, "mc_trials": default_mc_trials(points), "accept_out_of_range": False}
+    if summary.get("kind") == "positioning":
+        used = {"k": _number(summary.get("k")), "edition": summary.get("edition"), "accept_out_of_range": accepted}
+        return used, {"k": DEFAULT_K, "edition": DEFAULT_EDITION, "accept_out_of_range": False}
+    return {}, {}
+
+
 def make_entry(files: RunFiles) -> Entry:
     """The catalogue entry of a run read by :func:`read_run_files` (evaluating it if its results are missing
     or stale)."""
     meta = files.meta
-    summary, note = evaluated_summary(files.path)
+    summary, note = evaluated_summary(files.path, meta)
     values = headline_values(summary, meta) if summary is not None else {}
     verdict = (summary or {}).get("verdict")
+    options, defaults = evaluation_options(summary, files.points) if summary is not None else ({}, {})
     return Entry(uid=files.uid, path=str(files.path), **identity(meta), content_hash=files.content_hash,
-                 values=values, verdict=verdict.get("result") if isinstance(verdict, dict) else None, note=note)
+                 values=values, verdict=verdict.get("result") if isinstance(verdict, dict) else None, note=note,
+                 options=options, option_defaults=defaults)
 
 
 def identity(meta: dict[str, Any]) -> dict[str, str]:

@@ -2,7 +2,7 @@
 
 Adding is idempotent and safe with several processes at once: a run is keyed by its uid and written with
 one ``INSERT ... ON CONFLICT (uid) DO UPDATE`` (both databases have it), so two rigs adding the same runs
-leave one entry each and lose none.
+leave one entry each and lose none; each says what it wrote itself (``RETURNING``), not what the other wrote.
 """
 
 from __future__ import annotations
@@ -59,27 +59,44 @@ def _now() -> str:
 
 
 def _row(entry: Entry) -> dict[str, Any]:
+    options = json.dumps({"options": entry.options or {}, "defaults": entry.option_defaults}, allow_nan=False)
     return {"uid": entry.uid, "path": entry.path, "machine": entry.machine, "axis": entry.axis, "kind": entry.kind,
             "created": entry.created, "status": entry.status, "values_json": json.dumps(entry.values, allow_nan=False),
-            "verdict": entry.verdict, "content_hash": entry.content_hash, "added": _now()}
+            "verdict": entry.verdict, "content_hash": entry.content_hash, "added": _now(), "options_json": options}
 
 
-def _upsert(cat: Catalog, rows: list[dict[str, Any]]) -> None:
-    """Insert ``rows``, or replace the entries of their uids (one statement: no duplicate, no lost entry
-    when another process writes the same uids at the same time)."""
+def _upsert(cat: Catalog, rows: list[dict[str, Any]]) -> tuple[set[str], set[str]]:
+    """Insert ``rows``, or replace the entries of their uids that hold other content (one statement: no duplicate,
+    no lost entry when another process writes the same uids at the same time); return the uids this call
+    inserted and those it replaced.  A uid in neither was written, with the same content, by another process
+    between our look and our write (two rigs adding the same run at once: only one of them added it)."""
     if not rows:
-        return
+        return set(), set()
+    t = runs_table
     if cat.dialect == "postgresql":
         from sqlalchemy.dialects.postgresql import insert
     else:
         from sqlalchemy.dialects.sqlite import insert
-    stmt = insert(runs_table)
+    stmt = insert(t)
     keep = {c: stmt.excluded[c] for c in _row_columns() if c not in ("uid", "added")}
+    other_content = sa.or_(t.c.content_hash != stmt.excluded.content_hash, t.c.options_json.is_(None))
     # in uid order: each row locks its uid until the commit (PostgreSQL), so two writers taking the same uids
     # in different orders (two rigs whose folders name the runs differently) would deadlock
+    rows = sorted(rows, key=lambda r: r["uid"])
     with cat.engine.begin() as conn:
-        conn.execute(stmt.on_conflict_do_update(index_elements=["uid"], set_=keep),
-                     sorted(rows, key=lambda r: r["uid"]))
+        if cat.dialect == "postgresql":
+            # one statement; xmax = 0 in the row returned: inserted by it (else: an existing row it updated)
+            upsert = stmt.on_conflict_do_update(index_elements=["uid"], set_=keep, where=other_content).returning(
+                t.c.uid, sa.literal_column("(xmax = 0)").label("inserted"))
+            done = conn.execute(upsert, rows).all()
+            return {r.uid for r in done if r.inserted}, {r.uid for r in done if not r.inserted}
+        # SQLite: the first statement takes the database's write lock until the commit, so nothing comes between
+        inserted = set(conn.execute(stmt.on_conflict_do_nothing(index_elements=["uid"]).returning(t.c.uid),
+                                    rows).scalars())
+        rest = [r for r in rows if r["uid"] not in inserted]
+        updated = set(conn.execute(stmt.on_conflict_do_update(index_elements=["uid"], set_=keep, where=other_content)
+                                   .returning(t.c.uid), rest).scalars()) if rest else set()
+        return inserted, updated
 
 
 def _row_columns() -> list[str]:
@@ -94,15 +111,17 @@ def _set_path(cat: Catalog, moves: list[tuple[str, str]]) -> None:
                      [{"u": uid, "p": path} for uid, path in moves])
 
 
-def _known(cat: Catalog, uids: Iterable[str]) -> dict[str, tuple[str, str]]:
-    """uid -> (content hash, path) of the entries among ``uids``."""
+def _known(cat: Catalog, uids: Iterable[str]) -> dict[str, tuple[str, str, bool]]:
+    """uid -> (content hash, path, whether the entry records its evaluation options) of the entries among
+    ``uids`` (an entry of schema 1 does not: it is written again)."""
     uids = list(uids)
-    out: dict[str, tuple[str, str]] = {}
+    out: dict[str, tuple[str, str, bool]] = {}
+    t = runs_table
     with cat.engine.connect() as conn:
         for i in range(0, len(uids), 500):
-            q = sa.select(runs_table.c.uid, runs_table.c.content_hash, runs_table.c.path).where(
-                runs_table.c.uid.in_(uids[i:i + 500]))
-            out.update({r.uid: (r.content_hash, r.path) for r in conn.execute(q)})
+            q = sa.select(t.c.uid, t.c.content_hash, t.c.path, t.c.options_json.is_not(None).label("current")).where(
+                t.c.uid.in_(uids[i:i + 500]))
+            out.update({r.uid: (r.content_hash, r.path, bool(r.current)) for r in conn.execute(q)})
     return out
 
 
@@ -115,9 +134,13 @@ def still_holds(path: str, uid: str) -> bool:
 
 
 def _check_lengths(f: RunFiles) -> None:
-    """Refuse a run whose uid, machine, axis, ... is longer than its column: PostgreSQL would refuse the
-    whole batch of rows with it ("value too long"), SQLite would keep it; refused here, on both alike."""
+    """Refuse a run whose uid, machine, axis, ... is longer than its column or holds a NUL character:
+    PostgreSQL would refuse the whole batch of rows with it ("value too long", "cannot contain NUL"), SQLite
+    would keep it; refused here, on both alike."""
     for name, text in {"uid": f.uid, **identity(f.meta)}.items():
+        if "\0" in text:
+            raise RunUnreadable(f"{f.path}: run.json {name} holds a NUL character (\\u0000), which the catalogue "
+                                "cannot store: remove it from run.json and add the run again")
         limit = runs_table.c[name].type.length
         if len(text) > limit:
             raise RunUnreadable(f"{f.path}: run.json {name} is {len(text)} characters long; the catalogue holds "
@@ -150,7 +173,7 @@ def add_runs(cat: Catalog, run_dirs: Iterable[Path | str]) -> Iterator[AddOutcom
             continue
         seen[f.uid] = path
         old = known.get(f.uid)
-        if old is not None and old[0] == f.content_hash:
+        if old is not None and old[0] == f.content_hash and old[2]:
             if old[1] == path:
                 yield AddOutcome(path, "unchanged", f"unchanged: {path}", f.uid)
             elif still_holds(old[1], f.uid):
@@ -166,23 +189,48 @@ def add_runs(cat: Catalog, run_dirs: Iterable[Path | str]) -> Iterator[AddOutcom
         note = f" ({entry.note})" if entry.note else ""
         if old is None:
             told.append(AddOutcome(path, "added", f"added: {path}{note}", f.uid))
+        elif old[0] == f.content_hash:  # an entry of schema 1: without the evaluation options (and maybe verdict)
+            told.append(AddOutcome(path, "updated", f"updated: {path}: its entry, written by an older guideway, now "
+                                   f"holds the evaluation options and the verdict{note}", f.uid))
         else:
             told.append(AddOutcome(path, "updated", f"updated: {path} was edited since it was added (run.json or "
                                    f"points.csv changed); its entry now holds the run as it is{note}", f.uid))
         if len(pending) >= BATCH:
-            _upsert(cat, pending)
-            yield from told
+            yield from _written(cat, pending, told)
             pending, told = [], []
-    _upsert(cat, pending)
-    yield from told
+    yield from _written(cat, pending, told)
     _set_path(cat, moves)
     yield from moved
 
 
+def _written(cat: Catalog, rows: list[dict[str, Any]], told: list[AddOutcome]) -> Iterator[AddOutcome]:
+    """Write ``rows`` and yield their outcomes as this process wrote them: a run another process catalogued
+    between our look and our write is told as it now is (unchanged, or a copy of the other's), not as added."""
+    inserted, updated = _upsert(cat, rows)
+    others = [o for o in told if o.uid not in inserted and o.uid not in updated]
+    now = _known(cat, [o.uid for o in others]) if others else {}
+    for o in told:
+        if o.uid in inserted:
+            yield o if o.action == "added" else AddOutcome(o.path, "added", f"added: {o.path}", o.uid)
+        elif o.uid in updated:
+            yield o if o.action == "updated" else AddOutcome(
+                o.path, "updated", f"updated: {o.path}: catalogued at the same time by another process, with "
+                "other content; its entry now holds the run as it is here", o.uid)
+        else:
+            where = now.get(o.uid, ("", o.path, True))[1]
+            if where == o.path:
+                yield AddOutcome(o.path, "unchanged", f"unchanged: {o.path} (catalogued at the same time by another "
+                                 "process)", o.uid)
+            else:
+                yield AddOutcome(o.path, "copy", f"copy: {o.path} holds run {o.uid}, catalogued at the same time by "
+                                 f"another process at {where}; left as it is", o.uid)
+
+
 def _entry(row: Any) -> Entry:
+    options = json.loads(row.options_json) if row.options_json else {}  # none in the rows of schema 1
     return Entry(uid=row.uid, path=row.path, machine=row.machine, axis=row.axis, kind=row.kind, created=row.created,
                  status=row.status, content_hash=row.content_hash, values=json.loads(row.values_json),
-                 verdict=row.verdict)
+                 verdict=row.verdict, options=options.get("options"), option_defaults=options.get("defaults") or {})
 
 
 def since_text(date: str) -> str:

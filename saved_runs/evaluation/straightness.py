@@ -18,6 +18,9 @@ from ..errors import RunFormatError
 from ..store.plan import check_straightness_points, gap_text, straightness_gaps
 from ..store.reader import LoadedRun
 from .limits import OutOfRange, out_of_range, out_of_range_dict, print_out_of_range
+
+# the Monte Carlo defaults live in .options (no NumPy: the catalogue compares a summary's options with them)
+from .options import MC_SAMPLE_BUDGET, MC_TRIALS, default_mc_trials  # noqa: F401
 from .tolerance import Verdict, straightness_verdict, verdict_dict
 
 
@@ -38,7 +41,8 @@ class StraightnessEvaluation:
     def write(self, results_dir: Path) -> Path:
         from ..results.straightness import write_straightness_results  # matplotlib only when writing
 
-        return write_straightness_results(results_dir, self.result)
+        # summary.json is this object, verdict included (the catalogue reads the verdict from it)
+        return write_straightness_results(results_dir, self.result, self.to_dict())
 
     def print_summary(self, stream: TextIO) -> None:
         r = self.result
@@ -95,13 +99,6 @@ METHOD_COLUMNS: dict[str, tuple[str, ...]] = {
     "first-order": ("x_mm", "stry_um", "pitch_urad", "roll_urad", "sensor_mm"),
     "patent": ("x_mm", "stry_um", "pitch_urad", "roll_urad", "sensor_mm"),
 }
-MC_TRIALS = 10_000
-MC_SAMPLE_BUDGET = 2_000_000  # trials x stations: bounds Monte Carlo time and memory on long runs
-
-
-def default_mc_trials(stations: int) -> int:
-    """10 000 Monte Carlo trials, fewer (not below 1000) when trials x stations would pass 2e6."""
-    return max(1000, min(MC_TRIALS, MC_SAMPLE_BUDGET // max(stations, 1)))
 
 
 def check_finite(run: LoadedRun, method: str) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -21,20 +22,22 @@ LINE_LABELS = {"endpoint": "end-point line", "least_squares": "least-squares lin
                "minimum_zone": "minimum-zone line"}
 
 
-def write_straightness_results(results_dir: Path, result: StraightnessResult) -> Path:
+def write_straightness_results(results_dir: Path, result: StraightnessResult,
+                               summary: dict[str, Any] | None = None) -> Path:
     """Write profile.csv, summary.json and profile.png into ``results_dir`` as one set (a kill leaves
-    the old set or the new one, .result_set); return it."""
-    return write_result_set(results_dir, lambda out: _write_files(out, result))
+    the old set or the new one, .result_set); return it.  summary.json holds ``summary`` (the evaluation's
+    ``process --json`` object, with its verdict), else the result's own object."""
+    return write_result_set(results_dir, lambda out: _write_files(out, result, summary))
 
 
-def _write_files(out: Path, result: StraightnessResult) -> None:
+def _write_files(out: Path, result: StraightnessResult, summary: dict[str, Any] | None = None) -> None:
     prof = result.profile.copy()
     for name, fit in result.lines.items():
         prof[f"dev_{name}_um"] = fit.deviations_um
     if result.uncertainty is not None:
         prof["u_um"] = result.uncertainty.per_station_u_um  # standard uncertainty, k = 1
     write_text_atomic(out / "profile.csv", prof.to_csv(index=False, float_format="%.6f"))
-    write_json_atomic(out / "summary.json", result.to_dict())
+    write_json_atomic(out / "summary.json", result.to_dict() if summary is None else summary)
     plot_profile(result, out / "profile.png")
 
 

@@ -32,3 +32,16 @@ def test_air_index_choices_are_those_of_processing() -> None:
     assert air.DEFAULT_CO2_PPM == processing.air_index.DEFAULT_CO2_PPM
     for eq in air.EQUATIONS:
         assert air.equation_name(eq) == processing.air_index.EQUATION_NAMES[eq]
+
+
+def test_evaluation_defaults_are_those_of_processing() -> None:
+    """The defaults the catalogue compares a run's evaluation options with (saved_runs.evaluation.options)."""
+    import inspect
+
+    from saved_runs.evaluation.positioning import evaluate_positioning_run
+    from saved_runs.evaluation.straightness import evaluate_straightness_run
+
+    assert options.DEFAULT_METHOD == processing.decoupling.DEFAULT_METHOD
+    assert options.DEFAULT_EDITION == processing.iso230_2.DEFAULT_EDITION
+    assert inspect.signature(evaluate_positioning_run).parameters["k"].default == options.DEFAULT_K
+    assert inspect.signature(evaluate_straightness_run).parameters["method"].default == options.DEFAULT_METHOD

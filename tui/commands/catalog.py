@@ -55,6 +55,35 @@ def headline(values: dict[str, Any]) -> str:
     return "-"
 
 
+def printable(text: str) -> str:
+    """``text`` with its control characters escaped (a newline as ``\\n``, ESC as ``\\x1b``): a machine name
+    holding a terminal escape code must not drive the terminal, nor a newline forge a line of the list."""
+    escapes = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
+    return "".join(ch if ch.isprintable() else escapes.get(ch) or (f"\\x{ord(ch):02x}" if ord(ch) < 0x100 else
+                                                                    f"\\u{ord(ch):04x}") for ch in text)
+
+
+def printable_entry(e: Any) -> Any:
+    """An entry with the text it is listed with made :func:`printable`."""
+    from dataclasses import replace
+
+    return replace(e, **{k: printable(getattr(e, k)) for k in ("machine", "axis", "kind", "status", "created",
+                                                               "path")}, verdict=printable(e.verdict or "") or None)
+
+
+def options_line(e: Any) -> str:
+    """The line under an entry whose values were evaluated with other options than ``guideway process``'s
+    defaults ("" when with the defaults), or whose options are not known (an entry of an older guideway)."""
+    if e.options is None:
+        return "    evaluation options not recorded (an entry of an older guideway): add the run again"
+    other = e.non_default_options()
+    if not other:
+        return ""
+    used = ", ".join(f"{k} {v}" for k, v in other.items())
+    defaults = ", ".join(f"{k} {e.option_defaults[k]}" for k in other)
+    return printable(f"    evaluated with {used}, not the defaults of guideway process ({defaults})")
+
+
 def run_list(args: argparse.Namespace) -> int:
     from fleet.catalog.clock import future_cutoff, is_future
     from fleet.catalog.runs import list_entries
@@ -67,11 +96,13 @@ def run_list(args: argparse.Namespace) -> int:
                        "future_dated": [e.uid for e in entries if e.uid in future]}, sys.stdout, allow_nan=False)
             sys.stdout.write("\n")
             return 0
-        for e in entries:
+        for e in map(printable_entry, entries):
             print(f"{e.created:<20} {e.machine or '-':<14} {e.axis or '-':<6} {e.kind:<12} {e.status:<11} "
                   f"{e.verdict or '-':<6} {headline(e.values):<28} {e.path}")
             if e.uid in future:
                 print(f"  ^ dated in the future (created {e.created}): check the rig's clock; left out of trends")
+            if options_line(e):
+                print(options_line(e))
         print(f"{len(entries)} run(s) in {cat.url}", file=sys.stderr)
         if future:
             print(f"note: {len(future)} run(s) created later than {future_cutoff():%Y-%m-%dT%H:%M:%SZ} (now + 1 day), "

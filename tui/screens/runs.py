@@ -26,7 +26,7 @@ from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Static
 
-from fleet.catalog.config import configured_url
+from fleet.catalog.config import configured_url, masked_url
 from saved_runs.catalog.folder import DAMAGED, RunSummary, list_runs  # no pandas: the browser paints at once
 from saved_runs.errors import UserError
 
@@ -85,7 +85,8 @@ class RunsScreen(Screen):
 
     def action_reload(self) -> None:
         if self.from_catalog:
-            self.query_one("#runs-title", Static).update(f"reading the catalogue {escape(str(self.catalog_url))} ...")
+            shown = escape(masked_url(str(self.catalog_url)))
+            self.query_one("#runs-title", Static).update(f"reading the catalogue {shown} ...")
             self.read_catalog()
         else:
             self.show_runs(list_runs(self.runs_dir))
@@ -150,7 +151,7 @@ class RunsScreen(Screen):
     def title_text(self) -> str:
         n = len(self.runs)
         if self.from_catalog:
-            where = f"the catalogue {escape(str(self.catalog_url))}"
+            where = f"the catalogue {escape(masked_url(str(self.catalog_url)))}"
             filters = [f"{what} {escape(v)}" for what, v in (("machine", self.machine), ("axis", self.axis)) if v]
             where += f" ({', '.join(filters)})" if filters else ""
         else:
