@@ -18,6 +18,7 @@ import errno
 import os
 import secrets
 import shutil
+import stat
 from collections.abc import Callable
 from pathlib import Path
 
@@ -101,7 +102,10 @@ def write_result_set(results_dir: Path | str, write: Callable[[Path], None]) -> 
                     os.rename(results, old)
                     os.rename(tmp, results)
                     tmp = old
-                _carry_late_files(tmp, results)
+                # the old results/ is now at tmp; had someone put a link in its place since the check above,
+                # the exchange moved the link there: never carry the files of what it points to
+                if stat.S_ISDIR(os.stat(tmp, follow_symlinks=False).st_mode):
+                    _carry_late_files(tmp, results)
             else:
                 os.rename(tmp, results)
             fsync_dir(run_dir)
