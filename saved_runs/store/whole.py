@@ -32,13 +32,13 @@ def _check_out(out: Path) -> None:
     if out.exists() or out.is_symlink():
         if not out.is_dir():
             raise RunFormatError(f"{out} exists and is not a directory; choose another --out")
-        if run_files(out) or (out / LOCK_NAME).exists():
+        if run_files(out) or os.path.lexists(out / LOCK_NAME):
             _refuse_taken(out)
 
 
 def _refuse_taken(out: Path) -> None:
     """``out`` holds something: say whether a writer is at it (names the holder) or it is just not empty."""
-    if (out / LOCK_NAME).exists():
+    if os.path.lexists(out / LOCK_NAME):  # lexists: a lock that is a (dangling) link is refused by take_run_lock
         take_run_lock(out).release()  # raises RunInUseError naming the holder while one writes
         if not run_files(out):
             return
