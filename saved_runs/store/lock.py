@@ -33,7 +33,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-from ..errors import RunFormatError, UnsafeFileError, file_kind
+from ..errors import FileWriteError, RunFormatError, UnsafeFileError, file_kind
 from .files import pid_alive
 from .format import utc_now_iso
 
@@ -139,7 +139,7 @@ def take_run_lock(run_dir: Path | str, what: str = "the run") -> RunLock:
                                      "there") from None
             if exc.errno in (errno.ELOOP, errno.EISDIR, errno.ENXIO, errno.EOPNOTSUPP):
                 _refuse_unsafe(path, None)  # a link (even a dangling one), a directory, a socket
-            raise
+            raise FileWriteError(path, exc) from exc
         try:
             _refuse_unsafe(path, fd)
         except UnsafeFileError:

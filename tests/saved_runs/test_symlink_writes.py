@@ -367,4 +367,4 @@ def test_the_atomic_writer_inside_a_run(tmp_path: Path, victim: Victim) -> None:
     victim.untouched()
     write_text_atomic(run / "results" / "new" / "y.txt", "fine\n", make_parents=True)
     assert (run / "results" / "new" / "y.txt").read_text() == "fine\n"
-    assert not [p for p in (run / "results").rglob(".*.tmp")]  # no temporary file left
+    assert not list((run / "results").rglob(".*.tmp"))  # no temporary file left
