@@ -61,13 +61,15 @@ class UnsafeFileError(UserError):
     link to make the next writer destroy another file, so the tool refuses it and touches neither the link
     nor what it points to (docs/reliability.md, "Files are written, never written through").
 
-    ``path``: the entry refused; ``found``: what it is, in words (:func:`file_kind`)."""
+    ``path``: the entry refused; ``found``: what it is, in words (:func:`file_kind`); ``todo``: what to do
+    about it."""
 
-    def __init__(self, path: object, found: str, wanted: str = "a regular file") -> None:
+    def __init__(self, path: object, found: str, wanted: str = "a regular file",
+                 todo: str = "remove it (and find out who put it there)") -> None:
         self.path = path
         self.found = found
-        super().__init__(f"{path} is {found}, not {wanted}: guideway does not write through it; remove it "
-                         "(and find out who put it there), then try again")
+        super().__init__(f"{path} is {found}, not {wanted}: guideway does not write through it; {todo}, "
+                         "then try again")
 
 
 def file_kind(mode: int) -> str:

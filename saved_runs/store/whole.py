@@ -20,7 +20,7 @@ import uuid
 from pathlib import Path
 from typing import Any
 
-from ..errors import RunFormatError
+from ..errors import RunFormatError, UnsafeFileError
 from .files import fsync_dir, pid_alive
 from .lock import LOCK_NAME, RunInUseError, run_files, take_run_lock
 from .writer import RunStore
@@ -57,8 +57,8 @@ def _remove_stale_partials(parent: Path, name: str) -> None:
             continue
         try:
             lock = take_run_lock(p)
-        except (RunInUseError, RunFormatError):
-            continue  # another writer is at it right now
+        except (RunInUseError, RunFormatError, UnsafeFileError):
+            continue  # another writer is at it right now (or something not ours stands at its lock: leave it)
         lock.release()
         shutil.rmtree(p, ignore_errors=True)
 

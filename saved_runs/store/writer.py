@@ -253,7 +253,9 @@ def open_points(path: Path, *, new: bool) -> TextIO:
         if not stat.S_ISREG(st.st_mode):
             raise UnsafeFileError(path, file_kind(st.st_mode))
         if st.st_nlink != 1:
-            raise UnsafeFileError(path, "a file with other hard links", "a file of its own")
+            # a second name (a backup made with hard links, or a planted one): the points are the run's, keep them
+            raise UnsafeFileError(path, "a file with other hard links", "a file of its own",
+                                  f"give the run its own copy (cp {path} {path}.own && mv {path}.own {path})")
         os.set_blocking(fd, True)
         return os.fdopen(fd, "a", encoding="utf-8", newline="")
     except BaseException:

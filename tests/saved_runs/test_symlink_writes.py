@@ -82,11 +82,11 @@ def dir_untouched(d: Path) -> None:
 
 
 def positioning_data(tmp_path: Path) -> Path:
-    """Readings of a small ISO 230-2 test (2 runs each way, 3 targets) to import."""
+    """Readings of a small ISO 230-2 test (2 runs each way, 5 targets) to import."""
     rows = ["run,direction,target_mm,reading_mm"]
     for run in (1, 2):
         for direction in (1, -1):
-            for target in (0.0, 50.0, 100.0):
+            for target in (0.0, 25.0, 50.0, 75.0, 100.0):
                 rows.append(f"{run},{direction},{target},{target + 0.001 * run}")
     path = tmp_path / "data.csv"
     path.write_text("\n".join(rows) + "\n")
@@ -167,6 +167,24 @@ def test_demo_refuses_a_lock_file_that_is_a_link(tmp_path: Path, victim: Victim)
     victim.untouched()
 
 
+def test_a_leftover_partial_with_a_planted_lock_link_does_not_block_import(tmp_path: Path, victim: Victim) -> None:
+    """A temporary run directory of a killed import (its pid gone) is cleaned by the next import to the
+    same --out; one whose lock is a planted link is left alone (neither locked nor removed), not a reason
+    to refuse the import."""
+    import subprocess
+    import sys
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    leftover = tmp_path / f".run.{dead.pid}-0123abcd.partial"
+    link = plant(leftover / LOCK_NAME, victim.path)
+    res = guideway("import", "positioning", positioning_data(tmp_path), "--out", tmp_path / "run", "--compensated")
+    assert res.returncode == 0, res.stderr
+    assert (tmp_path / "run" / "run.json").is_file()
+    assert link.is_symlink() and os.readlink(link) == str(victim.path)
+    victim.untouched()
+
+
 @pytest.mark.parametrize("kind", ["a dangling symbolic link", "a directory", "a named pipe (FIFO)",
                                   "a hard link of another file"])
 def test_a_lock_path_that_is_not_a_plain_file_of_its_own_is_refused(tmp_path: Path, kind: str) -> None:
@@ -235,7 +253,12 @@ def test_resume_refuses_points_with_another_hard_link(tmp_path: Path, interrupte
     (run / "points.csv").unlink()
     os.link(other / "points.csv", run / "points.csv")
     one_line_error(guideway("acquire", "--resume", run, *SIMULATE), f"{run / 'points.csv'} is a file with other "
-                   "hard links")
+                   "hard links", "give the run its own copy")
+    assert (other / "points.csv").read_bytes() == theirs
+    # the advice given: a copy of its own, then the run resumes (and the other run stays as it was)
+    shutil.copyfile(run / "points.csv", run / "points.csv.own")
+    os.replace(run / "points.csv.own", run / "points.csv")
+    assert guideway("acquire", "--resume", run, *SIMULATE).returncode == 0
     assert (other / "points.csv").read_bytes() == theirs
 
 
