@@ -391,3 +391,55 @@ def test_the_atomic_writer_inside_a_run(tmp_path: Path, victim: Victim) -> None:
     write_text_atomic(run / "results" / "new" / "y.txt", "fine\n", make_parents=True)
     assert (run / "results" / "new" / "y.txt").read_text() == "fine\n"
     assert not list((run / "results").rglob(".*.tmp"))  # no temporary file left
+
+
+def swap_results_for_a_link(run: Path, target: Path) -> None:
+    """What an attacker racing ``process`` does: results/ moved away, a link to ``target`` in its place."""
+    os.rename(run / "results", run.parent / "moved-away")
+    (run / "results").symlink_to(target)
+
+
+def test_process_never_lists_a_results_link_swapped_in_after_its_check(tmp_path: Path, victim_dir: Path,
+                                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """results/ turns into a link between process's check and its listing of the files to carry over: the
+    listing must not follow it (it would hard-link the target's files into the run)."""
+    from saved_runs.results import result_set
+
+    run = copy_of(V1_RUN, tmp_path)
+    assert guideway("process", run, "--mc-trials", "0").returncode == 0
+    real = result_set.remove_stale_temps
+
+    def then_swap(directory: Path) -> list[str]:
+        removed = real(directory)
+        if directory == run / "results":  # called just after the check
+            swap_results_for_a_link(run, victim_dir)
+        return removed
+
+    monkeypatch.setattr(result_set, "remove_stale_temps", then_swap)
+    res = guideway("process", run, "--mc-trials", "0")
+    one_line_error(res, f"{run / 'results'} is not a directory")
+    dir_untouched(victim_dir)
+    assert (victim_dir / "passwd").stat().st_nlink == 1  # not hard-linked into the run
+    assert os.readlink(run / "results") == str(victim_dir)
+
+
+def test_process_never_carries_files_from_a_results_link_swapped_in_before_the_exchange(
+        tmp_path: Path, victim_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """results/ turns into a link just before the exchange: the exchange moves the link aside, and the
+    files it points to must not be "carried over" into the new results/ (moved out of their folder)."""
+    from saved_runs.results import result_set
+
+    run = copy_of(V1_RUN, tmp_path)
+    assert guideway("process", run, "--mc-trials", "0").returncode == 0
+    real = result_set.fsync_dir
+
+    def then_swap(path: Path) -> None:
+        real(path)
+        if path.name.startswith(".results.") and (run / "results").is_dir() and not (run / "results").is_symlink():
+            swap_results_for_a_link(run, victim_dir)  # the new set is complete: next comes the exchange
+
+    monkeypatch.setattr(result_set, "fsync_dir", then_swap)
+    res = guideway("process", run, "--mc-trials", "0")
+    assert "Traceback" not in res.stderr
+    dir_untouched(victim_dir)
+    assert not (run / "results" / "passwd").exists()
