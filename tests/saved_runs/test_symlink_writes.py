@@ -358,6 +358,17 @@ def test_diagnose_out_outside_a_run_replaces_a_link_never_writes_through_it(tmp_
     assert not link.is_symlink() and "[" in link.read_text()
 
 
+def test_compare_report_inside_a_run_refuses_a_results_link(tmp_path: Path, positioning_run: Path,
+                                                            victim_dir: Path) -> None:
+    """A report named inside a run is written as the run's own files are (fleet's compare, here)."""
+    run = copy_of(positioning_run, tmp_path)
+    shutil.rmtree(run / "results", ignore_errors=True)
+    link = plant(run / "results", victim_dir)
+    res = guideway("compare", positioning_run, run, "--report", run / "results" / "compare.html")
+    refused(res, link, victim_dir)
+    dir_untouched(victim_dir)
+
+
 def test_volumetric_refuses_a_link_in_its_out_folder(tmp_path: Path, victim: Victim) -> None:
     out = tmp_path / "vol"
     link = plant(out / "report.html", victim.path)
