@@ -83,11 +83,12 @@ def _open_dir(directory: Path, root: Path | None, *, create: bool) -> int:
                         os.mkdir(part, 0o777, dir_fd=fd)
                     sub = os.open(part, _DIR_FLAGS | os.O_NOFOLLOW, dir_fd=fd)
             except OSError as exc:
-                if exc.errno not in (errno.ELOOP, errno.ENOTDIR):
-                    exc.filename = str(here)
-                    raise
-                raise UnsafeFileError(here, file_kind(os.stat(part, dir_fd=fd, follow_symlinks=False).st_mode),
-                                      "a directory") from None
+                exc.filename = str(here)
+                mode = os.stat(part, dir_fd=fd, follow_symlinks=False).st_mode if exc.errno in (
+                    errno.ELOOP, errno.ENOTDIR) else stat.S_IFDIR
+                if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+                    raise  # an ordinary failure (a file where a folder is meant, no permission): FileWriteError
+                raise UnsafeFileError(here, file_kind(mode), "a directory") from None
             os.close(fd)
             fd = sub
     except BaseException:
