@@ -53,3 +53,32 @@ class FileWriteError(UserError):
         self.errno = exc.errno
         self.reason = exc.strerror or str(exc)
         super().__init__(f"cannot write {path}: {self.reason}{what_to_do(exc.errno)}")
+
+
+class UnsafeFileError(UserError):
+    """A file or folder the tool would write is not what it should be: a symbolic link, a folder where a
+    file belongs, a named pipe, a device.  Someone who may write into a shared runs folder could plant a
+    link to make the next writer destroy another file, so the tool refuses it and touches neither the link
+    nor what it points to (docs/reliability.md, "Files are written, never written through").
+
+    ``path``: the entry refused; ``found``: what it is, in words (:func:`file_kind`); ``todo``: what to do
+    about it."""
+
+    def __init__(self, path: object, found: str, wanted: str = "a regular file",
+                 todo: str = "remove it (and find out who put it there)") -> None:
+        self.path = path
+        self.found = found
+        super().__init__(f"{path} is {found}, not {wanted}: guideway does not write through it; {todo}, "
+                         "then try again")
+
+
+def file_kind(mode: int) -> str:
+    """What a file of ``st_mode`` ``mode`` is, in words (for :class:`UnsafeFileError`)."""
+    import stat
+
+    for test, words in ((stat.S_ISLNK, "a symbolic link"), (stat.S_ISDIR, "a directory"),
+                        (stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISSOCK, "a socket"),
+                        (stat.S_ISCHR, "a device"), (stat.S_ISBLK, "a device"), (stat.S_ISREG, "a regular file")):
+        if test(mode):
+            return words
+    return "a special file"  # pragma: no cover

@@ -216,16 +216,17 @@ def write_export(run_dir: Path | str, options: ExportOptions, out: Path | None =
                  accept_out_of_range: bool = False) -> tuple[Any, Export, Path]:
     """Build the export of a positioning run (:func:`export_run`) and write it (atomically) to ``out``
     or :func:`export_path`."""
+    from ..errors import FileWriteError, what_to_do
     from ..store.files import write_text_atomic
 
     run, export = export_run(run_dir, options, accept_out_of_range=accept_out_of_range)
     path = out or export_path(run.path, export, options.fmt)
-    if path.is_dir():
+    if path.is_dir() and not path.is_symlink():
         raise UserError(f"--out {path} is a directory; give a file name, "
                         f"e.g. {path / f'compensation-{options.fmt}{export.suffix}'}")
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(path, export.text)
-    except OSError as exc:
-        raise UserError(f"cannot write the table to {path}: {exc.strerror or exc}") from None
+        # inside a run (RUN/results/compensation-*) no link is followed, in the file's place or its folder's
+        write_text_atomic(path, export.text, make_parents=True)
+    except FileWriteError as exc:
+        raise UserError(f"cannot write the table to {path}: {exc.reason}{what_to_do(exc.errno)}") from None
     return run, export, path

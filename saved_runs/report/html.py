@@ -14,7 +14,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..errors import UserError
+from ..errors import FileWriteError, UserError, what_to_do
 from ..store.files import write_text_atomic
 
 CSS = """
@@ -141,11 +141,11 @@ def write_page(path: Path | str, text: str, *, option: str, example: str) -> Pat
     ``option`` (``--out``, ``--report``) and ``example`` (a file name) word the one-line refusal of a
     directory; a file that cannot be written is one line naming it."""
     path = Path(path)
-    if path.is_dir():
+    if path.is_dir() and not path.is_symlink():
         raise UserError(f"{option} {path} is a directory; give a file name, e.g. {path / example}")
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(path, text)
-    except OSError as exc:
-        raise UserError(f"cannot write the report to {path}: {exc.strerror or exc}") from None
+        # inside a run (RUN/results/report.html) no link is followed, in the file's place or its folder's
+        write_text_atomic(path, text, make_parents=True)
+    except FileWriteError as exc:
+        raise UserError(f"cannot write the report to {path}: {exc.reason}{what_to_do(exc.errno)}") from None
     return path

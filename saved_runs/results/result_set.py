@@ -18,6 +18,7 @@ import errno
 import os
 import secrets
 import shutil
+import stat
 from collections.abc import Callable
 from pathlib import Path
 
@@ -63,13 +64,31 @@ def _carry_late_files(old: Path, results: Path) -> None:
             os.replace(e.path, results / e.name)
 
 
+def _refuse_link(results: Path) -> UserError:
+    return UserError(f"{results} is not a directory (a link or a file); move it away, then evaluate again")
+
+
+def _open_results(results: Path) -> int | None:
+    """A descriptor of ``results`` to list the files it carries over (None if there is none yet), opened
+    without following a link: a link put in its place since the check is refused, never listed (its
+    target's files would be linked into the run)."""
+    try:
+        return os.open(results, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW | getattr(os, "O_CLOEXEC", 0))
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        if exc.errno in (errno.ELOOP, errno.ENOTDIR):
+            raise _refuse_link(results) from None
+        raise
+
+
 def write_result_set(results_dir: Path | str, write: Callable[[Path], None]) -> Path:
     """Replace the evaluation's files in ``results_dir`` by those ``write(directory)`` writes into the
     directory it is given, as one set (module docstring); return ``results_dir``."""
     results = Path(results_dir)
     run_dir = results.parent
     if results.is_symlink() or (results.exists() and not results.is_dir()):
-        raise UserError(f"{results} is not a directory (a link or a file); move it away, then evaluate again")
+        raise _refuse_link(results)
     remove_stale_temps(run_dir)
     remove_stale_temps(results)
     tmp = run_dir / f".{results.name}.{os.getpid()}-{secrets.token_hex(4)}.tmpdir"
@@ -83,17 +102,21 @@ def write_result_set(results_dir: Path | str, write: Callable[[Path], None]) -> 
         except FileWriteError as exc:  # name the file meant, not its place in the temporary directory
             raise FileWriteError(results / Path(str(exc.path)).name, OSError(exc.errno, exc.reason)) from exc
         try:
-            if results.is_dir():
-                for e in os.scandir(results):  # the other files of results/ stay (reports, tables)
-                    if e.name in SET_FILES or TEMP_NAME.match(e.name) or (tmp / e.name).exists():
-                        continue
-                    if e.is_dir(follow_symlinks=False):
-                        shutil.copytree(e.path, tmp / e.name, symlinks=True)
-                    else:
-                        try:
-                            os.link(e.path, tmp / e.name, follow_symlinks=False)
-                        except OSError:
-                            shutil.copy2(e.path, tmp / e.name, follow_symlinks=False)
+            listing = _open_results(results)
+            if listing is not None:
+                try:
+                    for e in os.scandir(listing):  # the other files of results/ stay (reports, tables)
+                        if e.name in SET_FILES or TEMP_NAME.match(e.name) or os.path.lexists(tmp / e.name):
+                            continue
+                        if e.is_dir(follow_symlinks=False):
+                            shutil.copytree(results / e.name, tmp / e.name, symlinks=True)
+                        else:
+                            try:
+                                os.link(e.name, tmp / e.name, src_dir_fd=listing, follow_symlinks=False)
+                            except OSError:
+                                shutil.copy2(results / e.name, tmp / e.name, follow_symlinks=False)
+                finally:
+                    os.close(listing)
             fsync_dir(tmp)
             if results.is_dir():
                 if not _exchange(tmp, results):
@@ -101,7 +124,10 @@ def write_result_set(results_dir: Path | str, write: Callable[[Path], None]) -> 
                     os.rename(results, old)
                     os.rename(tmp, results)
                     tmp = old
-                _carry_late_files(tmp, results)
+                # the old results/ is now at tmp; had someone put a link in its place since the check above,
+                # the exchange moved the link there: never carry the files of what it points to
+                if stat.S_ISDIR(os.stat(tmp, follow_symlinks=False).st_mode):
+                    _carry_late_files(tmp, results)
             else:
                 os.rename(tmp, results)
             fsync_dir(run_dir)

@@ -12,6 +12,12 @@ process is no obstacle (the next writer takes the lock and rewrites the holder).
 The lock file is removed when the writer ends.  Removing a lock file is safe only because a
 writer, after taking the lock, checks that the path still names the file it locked (a rival
 that opened the file just before it was removed would otherwise lock an orphan).
+
+The lock file is opened without following a symbolic link (O_NOFOLLOW) and without waiting on a
+named pipe (O_NONBLOCK), and must be a regular file with no other hard link: anyone who may write
+into a shared runs folder could otherwise plant ``RUN/.writer.lock`` as a link to any file and have
+the next writer truncate it.  Anything else there is refused (:class:`UnsafeFileError`, exit 2) and
+left as it is, link and target.
 """
 
 from __future__ import annotations
@@ -22,16 +28,48 @@ import fcntl
 import json
 import os
 import socket
+import stat
 import time
 from collections.abc import Iterator
 from pathlib import Path
 
-from ..errors import RunFormatError
+from ..errors import FileWriteError, RunFormatError, UnsafeFileError, file_kind
 from .files import pid_alive
 from .format import utc_now_iso
 
 LOCK_NAME = ".writer.lock"
 HOLDER_WAIT_S = 1.0  # how long a refused writer waits for the holder to record itself in the lock file
+_CLOEXEC = getattr(os, "O_CLOEXEC", 0)
+# no link followed, no wait on a named pipe: a lock file that is not a plain file is refused (module docstring)
+_LOCK_FLAGS = os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK | _CLOEXEC
+
+
+def _read_record(lock_path: Path) -> str:
+    """The text of the lock file, read without following a link or waiting on a pipe ("" if it is not a
+    plain file)."""
+    fd = os.open(lock_path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | _CLOEXEC)
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            return ""
+        return os.read(fd, 1 << 12).decode("utf-8")
+    finally:
+        os.close(fd)
+
+
+def _refuse_unsafe(path: Path, fd: int | None) -> None:
+    """Raise :class:`UnsafeFileError` if the lock file (open as ``fd``, or not openable: None) is not a plain
+    file of its own (a link, a directory, a pipe, a socket, another file's hard link)."""
+    if fd is None:
+        try:
+            mode = os.stat(path, follow_symlinks=False).st_mode
+        except OSError:
+            return
+        raise UnsafeFileError(path, file_kind(mode))
+    st = os.fstat(fd)
+    if not stat.S_ISREG(st.st_mode):
+        raise UnsafeFileError(path, file_kind(st.st_mode))
+    if st.st_nlink != 1:
+        raise UnsafeFileError(path, "a hard link of another file", "a lock file of its own")
 
 
 class RunInUseError(RunFormatError):
@@ -47,7 +85,7 @@ def holder_text(lock_path: Path) -> str:
     deadline = time.monotonic() + HOLDER_WAIT_S
     while True:
         try:
-            info = json.loads(lock_path.read_text(encoding="utf-8"))
+            info = json.loads(_read_record(lock_path))
             pid = int(info["pid"])
             if info["host"] != socket.gethostname() or pid_alive(pid):
                 return f"pid {pid} on host {info['host']}, since {info['since']}"
@@ -78,7 +116,7 @@ class RunLock:
         if self._fd is None:
             return
         with contextlib.suppress(OSError):
-            if os.stat(self.path).st_ino == os.fstat(self._fd).st_ino:
+            if os.stat(self.path, follow_symlinks=False).st_ino == os.fstat(self._fd).st_ino:
                 self.path.unlink()
         os.close(self._fd)  # closing the last descriptor of the file releases the flock
         self._fd = None
@@ -89,10 +127,9 @@ def take_run_lock(run_dir: Path | str, what: str = "the run") -> RunLock:
     naming the holder.  ``what`` names the directory in messages."""
     run_dir = Path(run_dir)
     path = run_dir / LOCK_NAME
-    flags = os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0)
     for _ in range(100):
         try:
-            fd = os.open(path, flags, 0o666)
+            fd = os.open(path, _LOCK_FLAGS, 0o666)
         except PermissionError:
             raise RunFormatError(f"{run_dir}: cannot write in this directory (permission denied); "
                                  f"{what} needs a directory you may write to") from None
@@ -100,6 +137,13 @@ def take_run_lock(run_dir: Path | str, what: str = "the run") -> RunLock:
             if exc.errno == errno.EROFS:
                 raise RunFormatError(f"{run_dir}: the file system is read-only; {what} cannot be written "
                                      "there") from None
+            if exc.errno in (errno.ELOOP, errno.EISDIR, errno.ENXIO, errno.EOPNOTSUPP):
+                _refuse_unsafe(path, None)  # a link (even a dangling one), a directory, a socket
+            raise FileWriteError(path, exc) from exc
+        try:
+            _refuse_unsafe(path, fd)
+        except UnsafeFileError:
+            os.close(fd)
             raise
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -108,7 +152,7 @@ def take_run_lock(run_dir: Path | str, what: str = "the run") -> RunLock:
             raise RunInUseError(f"{run_dir} is in use: another guideway process is writing it "
                                 f"({holder_text(path)}); wait until it ends or stop it, then try again") from None
         try:
-            same = os.stat(path).st_ino == os.fstat(fd).st_ino
+            same = os.stat(path, follow_symlinks=False).st_ino == os.fstat(fd).st_ino
         except FileNotFoundError:
             same = False
         if not same:  # the holder removed the file between our open and our lock: lock the new one

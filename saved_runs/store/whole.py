@@ -20,7 +20,7 @@ import uuid
 from pathlib import Path
 from typing import Any
 
-from ..errors import RunFormatError
+from ..errors import RunFormatError, UnsafeFileError
 from .files import fsync_dir, pid_alive
 from .lock import LOCK_NAME, RunInUseError, run_files, take_run_lock
 from .writer import RunStore
@@ -32,13 +32,13 @@ def _check_out(out: Path) -> None:
     if out.exists() or out.is_symlink():
         if not out.is_dir():
             raise RunFormatError(f"{out} exists and is not a directory; choose another --out")
-        if run_files(out) or (out / LOCK_NAME).exists():
+        if run_files(out) or os.path.lexists(out / LOCK_NAME):
             _refuse_taken(out)
 
 
 def _refuse_taken(out: Path) -> None:
     """``out`` holds something: say whether a writer is at it (names the holder) or it is just not empty."""
-    if (out / LOCK_NAME).exists():
+    if os.path.lexists(out / LOCK_NAME):  # lexists: a lock that is a (dangling) link is refused by take_run_lock
         take_run_lock(out).release()  # raises RunInUseError naming the holder while one writes
         if not run_files(out):
             return
@@ -57,8 +57,8 @@ def _remove_stale_partials(parent: Path, name: str) -> None:
             continue
         try:
             lock = take_run_lock(p)
-        except (RunInUseError, RunFormatError):
-            continue  # another writer is at it right now
+        except (RunInUseError, RunFormatError, UnsafeFileError):
+            continue  # another writer is at it right now (or something not ours stands at its lock: leave it)
         lock.release()
         shutil.rmtree(p, ignore_errors=True)
 

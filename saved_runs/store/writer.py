@@ -3,17 +3,22 @@
 ``run.json`` is always replaced atomically (:mod:`.files`); every point is appended to
 ``points.csv``, flushed and fsynced before the engine continues, so a crash or kill loses at most
 the point being captured.  :meth:`RunStore.for_resume` reopens an interrupted run to append to it.
+
+points.csv is created with O_EXCL and appended to with O_NOFOLLOW: a link planted in its place (to make
+the writer append to another file) is refused, never followed (docs/reliability.md).
 """
 
 from __future__ import annotations
 
+import errno
 import math
 import os
+import stat
 import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from ..errors import FileWriteError, RunFormatError
+from ..errors import FileWriteError, RunFormatError, UnsafeFileError, file_kind
 from .files import fsync_dir, write_json_atomic, write_text_atomic
 from .format import FORMAT, VERSION, format_cell, point_columns, utc_now_iso
 from .lock import run_files
@@ -45,7 +50,7 @@ class RunStore:
         self._last_meta_write = -math.inf
 
     def _write_meta(self) -> None:
-        write_json_atomic(self.run_dir / "run.json", self.meta)
+        write_json_atomic(self.run_dir / "run.json", self.meta, inside=self.run_dir)
         self._last_meta_write = time.monotonic()
 
     @classmethod
@@ -54,6 +59,13 @@ class RunStore:
 
         A partial last line of points.csv (a kill in the middle of a write) is cut off first.
         """
+        for name in ("run.json", "points.csv"):  # the files it writes: not read through a planted link either
+            try:
+                mode = os.stat(Path(run_dir) / name, follow_symlinks=False).st_mode
+            except OSError:
+                continue  # missing: load_run says so
+            if not stat.S_ISREG(mode):
+                raise UnsafeFileError(Path(run_dir) / name, file_kind(mode))
         run = load_run(run_dir)
         if run.meta.get("status") == "complete":
             raise RunFormatError(f"{run.path}: the run is already complete; nothing to resume")
@@ -110,11 +122,11 @@ class RunStore:
             self._csv = None
 
     def _reopen_csv(self) -> None:
-        self._csv = open(self.run_dir / "points.csv", "a", encoding="utf-8", newline="")  # noqa: SIM115
+        self._csv = open_points(self.run_dir / "points.csv", new=False)
 
     def _rewrite_points(self, lines: list[str]) -> None:
         """Replace points.csv atomically with ``lines`` (header first)."""
-        write_text_atomic(self.run_dir / "points.csv", "".join(line + "\n" for line in lines))
+        write_text_atomic(self.run_dir / "points.csv", "".join(line + "\n" for line in lines), inside=self.run_dir)
 
     def _retract(self, match: dict[str, Any]) -> None:
         """Withdraw the last point whose fields equal ``match`` (a redo); rewrites points.csv atomically."""
@@ -158,7 +170,7 @@ class RunStore:
             "points": 0,
         }
         self._write_meta()
-        self._csv = open(self.run_dir / "points.csv", "w", encoding="utf-8", newline="")  # noqa: SIM115
+        self._csv = open_points(self.run_dir / "points.csv", new=True)
         self._csv.write(",".join(self._columns) + "\n")
         self._sync_csv()
         fsync_dir(self.run_dir)
@@ -213,6 +225,42 @@ class RunStore:
             # cannot be written either; --resume continues it all the same
             if doc["exit_status"] != "fail":
                 raise
+
+
+def open_points(path: Path, *, new: bool) -> TextIO:
+    """points.csv opened to append to (``new``: created, and nothing may stand at ``path`` yet).
+
+    Never through a link (O_NOFOLLOW; O_EXCL when new), never a pipe or a device (O_NONBLOCK, then the
+    file checked to be regular), never a file with another hard link (appending would change it too):
+    anything else is refused with :class:`UnsafeFileError`, link and target left as they are."""
+    flags = os.O_WRONLY | os.O_APPEND | os.O_NOFOLLOW | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0)
+    if new:
+        flags |= os.O_CREAT | os.O_EXCL
+    try:
+        fd = os.open(path, flags, 0o666)
+    except OSError as exc:
+        if exc.errno not in (errno.ELOOP, errno.EEXIST, errno.ENXIO, errno.EISDIR):
+            raise FileWriteError(path, exc) from exc
+        try:
+            mode = os.stat(path, follow_symlinks=False).st_mode
+        except OSError:
+            raise FileWriteError(path, exc) from exc
+        if stat.S_ISREG(mode):  # new, and a file appeared since the directory was found empty
+            raise RunFormatError(f"{path} appeared while the run was started; choose a new directory") from None
+        raise UnsafeFileError(path, file_kind(mode)) from None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise UnsafeFileError(path, file_kind(st.st_mode))
+        if st.st_nlink != 1:
+            # a second name (a backup made with hard links, or a planted one): the points are the run's, keep them
+            raise UnsafeFileError(path, "a file with other hard links", "a file of its own",
+                                  f"give the run its own copy (cp {path} {path}.own && mv {path}.own {path})")
+        os.set_blocking(fd, True)
+        return os.fdopen(fd, "a", encoding="utf-8", newline="")
+    except BaseException:
+        os.close(fd)
+        raise
 
 
 def _complete_lines(path: Path) -> list[str]:

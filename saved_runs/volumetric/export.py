@@ -91,10 +91,11 @@ def export_model(machine: MachineFile, fmt: str, out_dir: Path | str, *, count: 
         out.mkdir(parents=True, exist_ok=True)
         for t in tables:
             path = out / f"{t.axis}{SUFFIX[fmt]}"
-            write_text_atomic(path, texts[t.axis])
+            write_text_atomic(path, texts[t.axis], inside=out)  # a link planted in the folder is refused
             files.append(path)
         path = out / "cross-terms.csv"
-        write_text_atomic(path, cross_table(machine, cross, grid).to_csv(index=False, float_format="%.6f"))
+        write_text_atomic(path, cross_table(machine, cross, grid).to_csv(index=False, float_format="%.6f"),
+                          inside=out)
         files.append(path)
     except OSError as exc:
         raise UserError(f"cannot write the tables to {out}: {exc.strerror or exc}") from None

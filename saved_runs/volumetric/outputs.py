@@ -35,9 +35,10 @@ def write_field(result: FieldResult, out_dir: Path | str, *, command: str = "") 
         summary = field_summary(result)
         for name, table in (("volumetric.csv", result.table()), ("contributions.csv", result.contribution_table())):
             # the text of to_csv(float_format="%.6f"), formatted on whole arrays (a --grid 50 has 4.4 M values)
-            write_text_atomic(out / name, fixed_csv(list(table.columns), table.to_numpy(dtype=float)))
-        write_json_atomic(out / "summary.json", summary)
-        write_text_atomic(out / "report.html", volumetric_page(result, summary, command).render())
+            write_text_atomic(out / name, fixed_csv(list(table.columns), table.to_numpy(dtype=float)), inside=out)
+        # inside=out: a link planted at one of the tool's names in the folder is refused, not replaced
+        write_json_atomic(out / "summary.json", summary, inside=out)
+        write_text_atomic(out / "report.html", volumetric_page(result, summary, command).render(), inside=out)
     except OSError as exc:
         raise UserError(f"cannot write the results to {out}: {exc.strerror or exc}") from None
     return summary

@@ -73,10 +73,12 @@ def test_a_read_only_run_directory_is_one_clear_line(tmp_path: Path, monkeypatch
     shutil.rmtree(run / "results", ignore_errors=True)
     real_open = os.open
 
-    def read_only(path: str, flags: int, *args: int) -> int:
-        if str(path).startswith(str(run)) and flags & os.O_CREAT:
-            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(path))
-        return real_open(path, flags, *args)
+    def read_only(path: str, flags: int, *args: int, dir_fd: int | None = None) -> int:
+        # files are created relative to their opened directory (saved_runs/store/files.py): where is that?
+        where = str(path) if dir_fd is None else os.path.join(os.readlink(f"/proc/self/fd/{dir_fd}"), path)
+        if where.startswith(str(run)) and flags & os.O_CREAT:
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), where)
+        return real_open(path, flags, *args, dir_fd=dir_fd)
 
     monkeypatch.setattr(files.os, "open", read_only)
     line = one_line_error(guideway("process", run, "--mc-trials", "0"), str(run), "Permission denied",
