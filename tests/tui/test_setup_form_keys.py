@@ -174,8 +174,9 @@ def test_a_start_error_stays_on_the_form_in_plain_words() -> None:
 
     async def check(pilot: Any, app: Any) -> tuple[str, str]:
         await pilot.press("f5")
-        await wait_for_app(pilot, lambda: screen_name(app) == "SetupScreen" and
-                           app.screen.query_one("#start-error").display, what="the start error", timeout_s=20)
+        await wait_for_app(pilot, lambda: app.session is not None and not app.session.active and
+                           screen_name(app) == "SetupScreen", what="the run to end", timeout_s=20)
+        await pilot.pause()
         first = "\n".join(screen_lines(app))
         await pilot.pause(11)  # a toast would be gone by now
         return first, "\n".join(screen_lines(app))
@@ -219,3 +220,73 @@ def test_errors_under_no_color_are_readable(monkeypatch: Any) -> None:
 
     seen = run_form(check, source=source)
     assert seen and all(c >= 4.5 and bold for c, bold in seen), seen
+
+
+def comment_lines(text: str) -> list[str]:
+    """Every comment of a TOML text: whole comment lines and the comment part of value lines (found here
+    by reading the text: a # outside a quoted string)."""
+    out = []
+    for line in text.splitlines():
+        quoted = False
+        for i, ch in enumerate(line):
+            if ch == '"':
+                quoted = not quoted
+            elif ch == "#" and not quoted:
+                out.append(line[i:].rstrip())
+                break
+    return out
+
+
+@pytest.mark.parametrize(("name", "field", "typed", "table", "key", "value"), [
+    ("setup-straightness.toml", "f-block-stations", "17", "block", "stations", 17),
+    ("setup-positioning.toml", "f-axis-runs", "3", "axis", "runs", 3),
+])
+def test_ctrl_s_asks_before_overwriting_and_keeps_every_comment(tmp_path: Path, name: str, field: str, typed: str,
+                                                                table: str, key: str, value: Any) -> None:
+    original = (ROOT / "docs" / name).read_text()
+    path = tmp_path / name
+    path.write_text(original)
+
+    async def check(pilot: Any, app: Any) -> tuple[str, str, str, str]:
+        await type_into(pilot, app, field, typed)
+        await pilot.press("ctrl+s")
+        await wait_for_app(pilot, lambda: screen_name(app) == "ConfirmScreen", what="the overwrite question")
+        asked = "\n".join(screen_lines(app))
+        untouched = path.read_text()  # nothing written before the answer
+        await pilot.press("y")
+        await wait_for_app(pilot, lambda: "saved to" in str(app.screen.query_one("#file-note").render()),
+                           what="the save")
+        return asked, untouched, path.read_text(), "\n".join(screen_lines(app))
+
+    asked, untouched, saved, shown = run_form(check, source=read_toml(path), setup_path=path)
+    assert "Overwrite" in asked and untouched == original
+    missing = [c for c in comment_lines(original) if c not in comment_lines(saved)]
+    assert not missing, missing
+    assert len(comment_lines(saved)) == len(comment_lines(original))
+    assert read_toml(path)[table][key] == value
+    # every other value as it was: the file read back equals the original with that one value changed
+    expected = read_toml(ROOT / "docs" / name)
+    expected[table][key] = value
+    assert read_toml(path) == expected
+    assert "give the set-up file name first" not in shown
+
+
+def test_no_stale_file_message_after_a_successful_save(tmp_path: Path) -> None:
+    path = tmp_path / "new.toml"
+
+    async def check(pilot: Any, app: Any) -> tuple[str, str, str]:
+        app.screen.query_one("#f-top-machine").focus()
+        await pilot.press("ctrl+s")  # no file name yet
+        await pilot.pause()
+        first = "\n".join(screen_lines(app))
+        await type_into(pilot, app, "setup-file", str(path))
+        await pilot.press("ctrl+s")  # a new file: no question
+        await wait_for_app(pilot, path.exists, what="the save")
+        await pilot.pause()
+        return first, "\n".join(screen_lines(app)), status(app)
+
+    first, after, line = run_form(check, source=STRAIGHTNESS)
+    assert "give the set-up file name first" in first
+    assert "give the set-up file name first" not in after and "saved to" in after
+    assert "set-up valid" in line
+    assert read_toml(path)["block"] == STRAIGHTNESS["block"]

@@ -593,6 +593,7 @@ class SetupScreen(Screen):
         """Parse every field into ``self.source``; returns the fields whose text is not a value
         (those keys are taken out of the structure, so the loader's messages are about the rest)."""
         bad: dict[Field, str] = {}
+        had = {k for k, v in self.source.items() if isinstance(v, dict)}
         for f in self.fields():
             try:
                 widget = self.query_one(f"#{f.id}")
@@ -619,6 +620,8 @@ class SetupScreen(Screen):
         kind = run_kind_of(self.source)
         if kind != "straightness":
             self.source.setdefault("axis", {})["type"] = kind
+        for name in [k for k, v in self.source.items() if v == {} and k not in had]:
+            del self.source[name]  # a table only an empty field asked for ([transmitter] without its URL)
         tolerance = self.source.get("tolerance")
         if isinstance(tolerance, dict) and not set(tolerance) - {"reference_line"}:
             # no limit given: no [tolerance] (the line alone, which the form always has, is no tolerance)
