@@ -119,7 +119,7 @@ def test_straightness_tolerance_typed_on_the_form_reaches_the_set_up(tmp_path: P
 
     before, after, bad, line = run_form(check, source=source)
     assert before == {}  # a form without a limit gives no [tolerance] (the line alone is none)
-    assert "straightness max (um)" in bad and "positive" in bad
+    assert "straightness (um)" in bad and "positive" in bad
     assert after == {"straightness_um": 12.5, "reference_line": "least_squares"}
     assert "set-up valid" in line
     assert setup_from_dict({**source, "tolerance": after}).tolerance == after
@@ -183,8 +183,8 @@ def test_a_start_error_stays_on_the_form_in_plain_words() -> None:
 
     first, later = run_form(check, source=source, simulate=False)
     for text in (first, later):
-        assert f"The serial port {port} does not exist." in text
-        assert "[Errno" not in text
+        assert f"The sensor port {port} does not exist." in text
+        assert "[Errno" not in text and "but the run did not start" in text
     assert later.count("The run did not start") == 1
 
 

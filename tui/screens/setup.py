@@ -77,7 +77,9 @@ class Field:
         return f"({self.placeholder})" if self.placeholder else ""
 
 
-# [tolerance] (saved_runs.evaluation.tolerance): an empty limit is not checked; no limit at all, no verdict
+# [tolerance] (saved_runs.evaluation.tolerance): the most each value may be; an empty limit is not
+# checked; no limit at all, no verdict
+TOLERANCE_TITLE = "Tolerance: the most allowed (PASS / FAIL)"
 NO_VERDICT = "none: not checked"
 
 
@@ -132,8 +134,8 @@ def straightness_fields(protocols: tuple[str, ...]) -> list[tuple[str, list[Fiel
             Field("validation", "jump_sensor_um", "jump sensor (um)", placeholder=_default(v.jump_sensor_um)),
             Field("validation", "capture_attempts", "capture attempts", "int",
                   placeholder=_default(v.capture_attempts))]),
-        ("Tolerance (PASS / FAIL)", [
-            Field("tolerance", "straightness_um", "straightness max (um)", placeholder=NO_VERDICT),
+        (TOLERANCE_TITLE, [
+            Field("tolerance", "straightness_um", "straightness (um)", placeholder=NO_VERDICT),
             Field("tolerance", "reference_line", "against the line", "choice", REFERENCE_LINES)]),
     ]
 
@@ -168,7 +170,7 @@ def positioning_fields(unit: str) -> list[tuple[str, list[Field]]]:
             *([Field("transmitter", "url", "XY-MD02 URL", "str", placeholder="optional: the controller's "
                      "environment unit", text=True, address=True)] if not rotary else [])]),
         *([("Environment (what the readings contain)", ENVIRONMENT_FIELDS)] if not rotary else []),
-        ("Tolerance (PASS / FAIL)", positioning_tolerance_fields("arcsec" if rotary else "um")),
+        (TOLERANCE_TITLE, positioning_tolerance_fields("arcsec" if rotary else "um")),
     ]
 
 
@@ -180,7 +182,7 @@ TOLERANCE_QUANTITIES = (("A", "A accuracy"), ("R", "R repeatability"), ("E", "E 
 
 def positioning_tolerance_fields(unit: str) -> list[Field]:
     """[tolerance] of a positioning set-up: one limit per ISO 230-2 value, ``unit`` um or arcsec."""
-    return [Field("tolerance", f"{q}_{unit}", f"{label} max ({unit})", placeholder=NO_VERDICT)
+    return [Field("tolerance", f"{q}_{unit}", f"{label} ({unit})", placeholder=NO_VERDICT)
             for q, label in TOLERANCE_QUANTITIES]
 
 
@@ -407,8 +409,7 @@ class SetupScreen(Screen):
                 Binding("q", "quit_form", "quit", show=False, priority=True),
                 # ? opens the help from every field but a port or URL (where it is part of the address):
                 # ahead of the field, which would type it; F1 opens it from everywhere (the application's)
-                Binding("question_mark", "help_here", "help (F1 from any field)", key_display="?",
-                        show=False, priority=True),
+                Binding("question_mark", "help_here", "help", key_display="?/F1", priority=True),
                 Binding("escape", "leave_field", "leave the field", show=False)]
     DEFAULT_CSS = """
     SetupScreen #run-kind { layout: horizontal; width: 1fr; }
@@ -421,7 +422,7 @@ class SetupScreen(Screen):
     SetupScreen.-wide #fields { layout: grid; grid-size: 2; grid-gutter: 0 2; grid-rows: auto; }
     SetupScreen #setup-status { height: 2; }
     SetupScreen #file-error, SetupScreen #file-note { padding-left: 1; }
-    SetupScreen #file-note { height: auto; }
+    SetupScreen #file-note { height: auto; display: none; }
     SetupScreen #start-error { height: auto; padding: 0 1; text-style: bold; color: $error; display: none; }
     SetupScreen .warning { height: auto; padding-left: 25; text-style: bold; color: $warning; display: none; }
     """
@@ -724,7 +725,10 @@ class SetupScreen(Screen):
             status.update("checking the set-up...")
         elif n == 0:
             note = f" · note: {escape(self.warnings[0][1])}" if self.warnings else ""
-            status.update(f"[{'b' if self.app.no_color else 'green'}]set-up valid[/]: F5 starts the run{note}")
+            if self.start_error is not None:  # the set-up is valid, the devices are not: never "valid" alone
+                status.update(f"set-up valid, [{self._alert()}]but the run did not start[/] (above): F5 tries again")
+            else:
+                status.update(f"[{'b' if self.app.no_color else 'green'}]set-up valid[/]: F5 starts the run{note}")
         else:
             more = f" ({n} problems, each under its field)" if n > 1 else ""
             status.update(f"[{self._alert()}]set-up not valid{more}:[/] {escape(self.problems[0][1])}")
@@ -749,11 +753,13 @@ class SetupScreen(Screen):
         from acquisition.fault_words import start_words
 
         self._starting = False
-        words = start_words(error)
+        sensor_port = (self.source.get("sensor") or {}).get("port")
+        words = start_words(error, {sensor_port: "sensor"} if isinstance(sensor_port, str) else None)
         self.start_error = error
         box = self.query_one("#start-error", Static)
         box.update(f"The run did not start. {escape(words.what)}\n{escape(words.check)}")
         box.display = True
+        self._show_status()
 
     def _form_state(self) -> tuple[Any, ...]:
         """What the technician can edit of the set-up: the run kind and every field's value."""
@@ -952,8 +958,10 @@ class SetupScreen(Screen):
         the first field with a problem takes the focus (the problems stay shown until fixed)."""
         if self._starting:  # a second F5 before the run's screen is up: one run
             return
-        self.start_error = None
-        self.query_one("#start-error", Static).display = False
+        if self.start_error is not None:
+            self.start_error = None
+            self.query_one("#start-error", Static).display = False
+            self._show_status()
         if not self._checked:
             self._start_pending = True
             self.query_one("#setup-status", Static).update("checking the set-up... (F5: the run starts when "
