@@ -182,8 +182,9 @@ TOLERANCE_QUANTITIES = (("A", "A accuracy"), ("R", "R repeatability"), ("E", "E 
 
 def positioning_tolerance_fields(unit: str) -> list[Field]:
     """[tolerance] of a positioning set-up: one limit per ISO 230-2 value, ``unit`` um or arcsec."""
-    return [Field("tolerance", f"{q}_{unit}", f"{label} ({unit})", placeholder=NO_VERDICT)
-            for q, label in TOLERANCE_QUANTITIES]
+    # (a label has 22 columns: "R repeatability (arcsec)" is shortened)
+    return [Field("tolerance", f"{q}_{unit}", f"{label if len(label) + len(unit) < 20 else label[:10] + '.'} "
+                  f"({unit})", placeholder=NO_VERDICT) for q, label in TOLERANCE_QUANTITIES]
 
 
 # [environment] of a linear axis (docs/run-format.md); an angle is not air-compensated, so rotary has none.
