@@ -76,3 +76,35 @@ def explain(fault: str) -> FaultWords:
     if low.startswith("reconnection failed"):  # the engine's retry could not open the device again
         what = "could not be reconnected"
     return FaultWords(device, f"{device} {what}.", check, fault)
+
+
+def start_words(error: str, ports: dict[str, str] | None = None) -> FaultWords:
+    """Why a run could not start, in plain words: a serial port that does not exist or cannot be opened,
+    a controller that does not answer (the driver's line, with its errno twice, stays the ``detail``);
+    ``ports`` names the set-up's ports (``{"/dev/ttyUSB0": "sensor"}``: "The sensor port ...")."""
+    if m := re.search(r"cannot open serial port '([^']+)': (.*)", error, re.S):
+        port, why = m.group(1), m.group(2).lower()
+        whose = (ports or {}).get(port, "serial")
+        if "errno 2]" in why or "no such file" in why:
+            what = f"The {whose} port {port} does not exist."
+            check = ("Check the port name on the form and that the device's USB adapter is plugged in "
+                     "(F5 tries again), or tick simulated devices.")
+        elif "errno 13]" in why or "permission" in why:
+            what = f"The {whose} port {port} may not be opened by this user."
+            check = "Add the user to the dialout group and log in again (F5 tries again)."
+        elif "errno 16]" in why or "busy" in why:
+            what = f"The {whose} port {port} is in use by another program."
+            check = "Close the other program that has it open (F5 tries again)."
+        else:
+            what = f"The {whose} port {port} could not be opened."
+            check = "Check the port name on the form, the USB adapter and the device's power (F5 tries again)."
+        return FaultWords("A serial device", what, check, error)
+    if m := re.search(r"cannot connect to controller at (\S+?):? ", error):
+        return FaultWords("The interferometer controller",
+                          f"The interferometer controller at {m.group(1)} does not answer.",
+                          "Check the controller URL on the form, that the controller is switched on and its "
+                          "cable is plugged in (F5 tries again), or tick simulated devices.", error)
+    words = explain(error)
+    if words.device == "A device":  # not a device's fault (a set-up file, a run directory): its own words
+        return FaultWords("", error[:1].upper() + error[1:].rstrip(".") + ".", "F5 tries again.", error)
+    return FaultWords(words.device, words.what, words.check + " (F5 tries again)", error)

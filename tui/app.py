@@ -60,6 +60,7 @@ class GuidewayApp(App[None]):
     TITLE = "guideway"
     ENABLE_COMMAND_PALETTE = False
     BINDINGS = [Binding("q", "quit_app", "quit"), Binding("question_mark", "help", "help", key_display="?"),
+                Binding("f1", "help", "help", show=False),  # also from a text field, where ? is typed
                 Binding("f2", "setup", "set-up", show=False), Binding("f3", "runs", "runs", show=False)]
 
     def __init__(self, *, setup_source: dict[str, Any] | None = None, setup_path: Path | None = None,
@@ -231,8 +232,13 @@ class GuidewayApp(App[None]):
             note = (f"run {outcome.exit_status}: {outcome.reason}; the points are kept and the run can be "
                     f"resumed (c on the Runs screen)")
         if outcome is None and not (message.run_dir / "run.json").exists():
+            # nothing on disk (a device that could not be opened): back to the form, where the reason stays
+            # in plain words until the next F5 (not a toast that fades and leaves "set-up valid")
             self._switch("setup")
-            self.notify(note, severity="error", timeout=10, markup=False)
+            setup = self.get_screen("setup")
+            if isinstance(setup, SetupScreen):
+                setup.show_start_error(message.error or "")
+            self.log.error(note)
             return
         self.open_results(message.run_dir, note)
 

@@ -131,3 +131,46 @@ def setup_toml_text(data: dict[str, Any]) -> str:
                 raise SetupError(f"[{name}] {k}: nested tables are not part of a set-up file")
             lines.append(f"{k} = {_value(v, f'[{name}] {k}')}")
     return "\n".join(lines) + "\n"
+
+
+def setup_toml_update(text: str | None, data: dict[str, Any]) -> str:
+    """``text`` (a set-up file's TOML) with its values replaced by those of ``data``: every comment,
+    blank line and key order stays; keys ``data`` no longer has are taken out, new ones added at the
+    end of their table; a value that did not change keeps its spelling (``1800`` stays ``1800``, not
+    ``1800.0``).  Without ``text`` (or when it is not TOML) the file is :func:`setup_toml_text`."""
+    import tomlkit  # (only when saving: not before the first frame)
+    from tomlkit.exceptions import TOMLKitError
+
+    fresh = setup_toml_text(data)  # also refuses what cannot be written (nan, nested tables)
+    if text is None:
+        return fresh
+    try:
+        doc = tomlkit.parse(text)
+    except TOMLKitError:
+        return fresh
+
+    def same(old: Any, new: Any) -> bool:
+        old = old.unwrap() if hasattr(old, "unwrap") else old
+        return type(old) is type(new) and old == new or (
+            isinstance(old, int | float) and isinstance(new, int | float) and not isinstance(old, bool)
+            and not isinstance(new, bool) and float(old) == float(new))
+
+    def update(table: Any, values: dict[str, Any]) -> None:
+        for key in [k for k in table if k not in values and not isinstance(table[k], dict)]:
+            del table[key]
+        for key, value in values.items():
+            if isinstance(value, dict):
+                continue
+            if key not in table or not same(table[key], value):
+                table[key] = value
+
+    update(doc, data)
+    for name, values in data.items():
+        if not isinstance(values, dict):
+            continue
+        if name not in doc:
+            doc.add(name, tomlkit.table())
+        update(doc[name], values)
+    for name in [k for k in doc if isinstance(doc[k], dict) and k not in data]:
+        del doc[name]
+    return tomlkit.dumps(doc)

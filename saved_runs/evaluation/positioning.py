@@ -149,6 +149,8 @@ def evaluate_positioning_run(run: LoadedRun, *, k: float = 2.0, edition: str = D
         result = evaluate_iso230_2(deviations, axis_type=axis_type, k=k, edition=edition)
     except ValueError as exc:
         raise RunFormatError(f"{run.path}: {exc}") from None
-    verdict = positioning_verdict(run.meta, f"{run.path}/run.json", result.axis, result.unit)
+    per_target = result.per_target
+    verdict = positioning_verdict(run.meta, f"{run.path}/run.json", result.axis, result.unit,
+                                  ([int(n) for n in per_target["n_up"]], [int(n) for n in per_target["n_down"]]))
     return PositioningEvaluation(run, result, deviations, info, accepted, verdict)
 

@@ -100,10 +100,12 @@ def check(quantity: str, value: float, tolerance: float, unit: str, uncertainty:
 @dataclass(frozen=True)
 class Verdict:
     """The checks against ``[tolerance]``; ``incomplete`` says which planned steps the run lacks (a run
-    with a gap cannot pass: the missing station could be the one out of tolerance)."""
+    with a gap cannot pass: the missing station could be the one out of tolerance); ``missing`` says in
+    plain words why a value could not be evaluated (``1 run per direction, A and R need 2+``)."""
 
     checks: tuple[Check, ...]
     incomplete: str = ""
+    missing: str = ""
 
     @property
     def result(self) -> str:
@@ -112,13 +114,27 @@ class Verdict:
             return "fail"
         return "not evaluated" if "not evaluated" in results or self.incomplete else "pass"
 
+    @property
+    def reason(self) -> str:
+        """Why the verdict is NOT EVALUATED, in plain words ('' for any other verdict)."""
+        if self.result != "not evaluated":
+            return ""
+        why = []
+        if any(c.result == "not evaluated" for c in self.checks):
+            names = ", ".join(c.quantity for c in self.checks if c.result == "not evaluated")
+            why.append(self.missing or f"{names} could not be computed from the points")
+        if self.incomplete:
+            why.append(f"run incomplete: {self.incomplete}")
+        return "; ".join(why)
+
     def to_dict(self) -> dict[str, Any]:
         return {"result": self.result, "checks": [asdict(c) for c in self.checks],
-                **({"incomplete": self.incomplete} if self.incomplete else {})}
+                **({"incomplete": self.incomplete} if self.incomplete else {}),
+                **({"reason": self.reason} if self.reason else {})}
 
     def text(self) -> str:
-        gap = f"; run incomplete: {self.incomplete}" if self.incomplete else ""
-        return f"verdict: {self.result.upper()} ({'; '.join(c.text() for c in self.checks)}{gap})"
+        why = f": {self.reason}" if self.reason else ""
+        return f"verdict: {self.result.upper()}{why} ({'; '.join(c.text() for c in self.checks)})"
 
 
 def verdict_dict(verdict: Verdict | None) -> dict[str, Any]:
@@ -146,8 +162,11 @@ def straightness_verdict(meta: dict[str, Any], where: str, straightness_um: dict
                           tol["straightness_um"], "um", uncertainty_um.get(line)),), incomplete)
 
 
-def positioning_verdict(meta: dict[str, Any], where: str, axis: dict[str, float], unit: str) -> Verdict | None:
-    """The verdict of a positioning run against run.json ``setup.tolerance`` (None without one)."""
+def positioning_verdict(meta: dict[str, Any], where: str, axis: dict[str, float], unit: str,
+                        approaches: tuple[list[int], list[int]] | None = None) -> Verdict | None:
+    """The verdict of a positioning run against run.json ``setup.tolerance`` (None without one);
+    ``approaches``: the approaches at each target up and down, to say in plain words why a value
+    could not be evaluated (A and R need a standard deviation, so 2 or more approaches, ISO 230-2)."""
     tol = _stored(meta, where, positioning_tolerance, unit)
     if not tol:
         return None
@@ -155,4 +174,15 @@ def positioning_verdict(meta: dict[str, Any], where: str, axis: dict[str, float]
     for key, value in tol.items():
         q = key[: -len(unit) - 1]  # A_um -> A
         checks.append(check(q, axis.get(q, math.nan), value, unit))
-    return Verdict(tuple(checks))
+    missing = ""
+    if approaches is not None and any(c.value is None for c in checks):
+        up, down = approaches
+        measured = [n for n in (up, down) if n and max(n) > 0]
+        if len(measured) < 2:
+            missing = "one direction only (unidirectional test): A, E, M and B need both directions"
+        elif any(max(n) < 2 for n in measured):
+            runs = min(max(n) for n in measured)
+            missing = f"{runs} run per direction, A and R need 2+"
+        elif any(min(n) < 2 for n in measured):
+            missing = "some targets have fewer than 2 approaches per direction (missing points), A and R need 2+"
+    return Verdict(tuple(checks), missing=missing)

@@ -193,7 +193,8 @@ def verdict_section(page: HtmlPage, verdict: Any, what: str) -> None:
         page.paragraph(f"No tolerance in the set-up ([tolerance] {what}): no pass/fail verdict.", "note")
         return
     cls = {"pass": "verdict-pass", "fail": "verdict-fail"}.get(verdict.result, "verdict-open")
-    page.paragraph(f"Verdict: {verdict.result.upper()}", f"headline {cls}")
+    why = getattr(verdict, "reason", "")  # NOT EVALUATED says why (one run per direction, a gap in the run)
+    page.paragraph(f"Verdict: {verdict.result.upper()}" + (f": {why}" if why else ""), f"headline {cls}")
     if getattr(verdict, "incomplete", ""):  # a gap in the run: no PASS (saved_runs/store/plan.py)
         page.paragraph(f"Run incomplete: {verdict.incomplete}; the verdict cannot be PASS.", "note")
     rows = [(c.quantity, c.value, c.tolerance, UNIT_LABELS.get(c.unit, c.unit), c.uncertainty,

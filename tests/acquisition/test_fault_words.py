@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from acquisition.fault_words import explain
+from acquisition.fault_words import explain, start_words
 from drivers.errors import DeviceError, with_context
 
 SENSOR = "displacement sensor (keyence-lkg on /tmp/guideway-sim-x/sensor)"
@@ -53,3 +53,20 @@ def test_a_failed_reconnection_says_so() -> None:
 def test_an_unknown_line_still_reads_as_a_sentence_with_the_line_as_detail() -> None:
     words = explain("something nobody foresaw")
     assert words.what == "A device stopped answering correctly." and words.detail == "something nobody foresaw"
+
+
+def test_why_a_run_did_not_start_in_plain_words() -> None:
+    # the lines of guideway acquire with no such port / no controller at the address (drivers/transport.py)
+    port = "/dev/ttyUSB0"
+    line = (f"cannot open serial port '{port}': [Errno 2] could not open port {port}: [Errno 2] No such file or "
+            f"directory: '{port}'; check the port name and that the sensor is connected")
+    words = start_words(line, {port: "sensor"})
+    assert words.what == f"The sensor port {port} does not exist." and "Errno" not in words.check
+    assert words.detail == line
+    assert start_words(line).what == f"The serial port {port} does not exist."
+    busy = line.replace("[Errno 2]", "[Errno 16]").replace("No such file or directory", "Device or resource busy")
+    assert "in use by another program" in start_words(busy).what
+    ctl = ("cannot connect to controller at modbus-tcp://127.0.0.1:1: no Modbus answer from 127.0.0.1:1 within "
+           "1.0 s / connection refused; check the controller address and that it is switched on")
+    words = start_words(ctl)
+    assert words.what == "The interferometer controller at modbus-tcp://127.0.0.1:1 does not answer."

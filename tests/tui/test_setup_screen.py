@@ -11,7 +11,7 @@ from typing import Any
 from textual.widgets import Input
 
 from acquisition.setup.maxima import STATIONS_MAX
-from tests.tui.sessions import STRAIGHTNESS, screen_lines
+from tests.tui.sessions import STRAIGHTNESS, screen_lines, screen_name
 from tests.waiting import wait_for_app
 from tui.app import GuidewayApp
 from tui.screens.setup import SetupScreen
@@ -85,7 +85,7 @@ def test_page_down_end_and_the_jump_list_move_the_focus_where_it_is_seen() -> No
 
     seen = run_form(check)
     assert seen == [("setup-file", True), ("f-top-machine", True), ("f-block-length_mm", True),
-                    ("f-validation-capture_attempts", True), ("f-warmup-enabled", True),
+                    ("f-tolerance-reference_line", True), ("f-validation-max_sensor_std_um", True),
                     ("f-sensor-protocol", True)]
 
 
@@ -110,7 +110,10 @@ def test_a_huge_station_count_is_refused_on_the_form_and_q_quits_at_once() -> No
         await pilot.pause()
         reason, line = error_text(app, "f-block-stations"), status(app)
         t0 = time.monotonic()
-        await pilot.press("q")  # focus is in the stations field: q is no digit, it quits
+        await pilot.press("q")  # focus is in the stations field: q is no digit, it quits (the form is edited:
+        await wait_for_app(pilot, lambda: screen_name(app) == "ConfirmScreen", what="the quit question")
+        assert not app._exit  # it asks first)
+        await pilot.press("y")
         await wait_for_app(pilot, lambda: app._exit, timeout_s=5, what="the app to quit")
         return reason, line, time.monotonic() - t0
 
@@ -126,6 +129,8 @@ def test_q_types_into_a_text_field_and_quits_after_escape() -> None:
         await type_into(pilot, app, "f-top-machine", "Quarry mill q")
         typed, quit_early = app.screen.query_one("#f-top-machine", Input).value, app._exit
         await pilot.press("escape", "q")
+        await wait_for_app(pilot, lambda: screen_name(app) == "ConfirmScreen", what="the quit question")
+        await pilot.press("y")
         await wait_for_app(pilot, lambda: app._exit, timeout_s=5, what="the app to quit")
         return typed, quit_early, app._exit
 

@@ -288,6 +288,8 @@ class ResultsScreen(Screen):
         self.query_one("#verdict-word", Static).update(
             f"[b {colour}]{big_word(word)}[/]" if word in ("PASS", "FAIL") else f"[b {colour}]NOT\nEVALUATED[/]")
         head = f"[b {colour}]{category}[/]"
+        if category == "NOT EVALUATED" and getattr(verdict, "reason", ""):  # why, in plain words
+            head += f"[b {colour}]: {escape(verdict.reason)}[/]"
         note = "within U of the limit: not proven (ISO 14253-1)" if "within uncertainty" in category else ""
         checks = sorted(verdict.checks, key=lambda c: c.result != verdict.result)  # the deciding ones first
         if len(checks) == 1:  # the title names the quantity, the next line its value, limit and U

@@ -8,6 +8,7 @@ the form (loaded from a file) are kept as they are.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import re
 from dataclasses import dataclass
@@ -28,6 +29,9 @@ from textual.widgets import Checkbox, Footer, Header, Input, RadioButton, RadioS
 
 from acquisition.setup.maxima import STATIONS_MAX, TARGETS_MAX
 from saved_runs.errors import SetupError
+from saved_runs.evaluation.tolerance import REFERENCE_LINES
+
+from .dialogs import ConfirmScreen
 
 # The set-up loaders (and the drivers, numpy, pymodbus behind them) are imported in a worker after the
 # first frame (SetupScreen.prepare): the screen paints at once and its fields appear when they can be checked.
@@ -61,6 +65,7 @@ class Field:
     aliases: tuple[str, ...] = ()  # other names the loader's messages use for this key
     placeholder: str = ""
     text: bool = False  # free text (a name, a port, a URL): the letter keys type into it
+    address: bool = False  # a port or URL: ``?`` is part of it (modbus-rtu:/dev/ttyUSB1?baud=19200), not help
 
     @property
     def id(self) -> str:
@@ -70,6 +75,12 @@ class Field:
     def hint(self) -> str:
         """The placeholder as shown: in parentheses."""
         return f"({self.placeholder})" if self.placeholder else ""
+
+
+# [tolerance] (saved_runs.evaluation.tolerance): the most each value may be; an empty limit is not
+# checked; no limit at all, no verdict
+TOLERANCE_TITLE = "Tolerance: the most allowed (PASS / FAIL)"
+NO_VERDICT = "none: not checked"
 
 
 def _default(v: Any) -> str:
@@ -100,10 +111,11 @@ def straightness_fields(protocols: tuple[str, ...]) -> list[tuple[str, list[Fiel
             Field("geometry", "sensor_sign", "sensor sign", "choice", ("height", "gap"))]),
         ("Devices", [
             Field("sensor", "protocol", "sensor protocol", "choice", protocols),
-            Field("sensor", "port", "sensor port", "str", placeholder="required: e.g. /dev/ttyUSB0", text=True),
+            Field("sensor", "port", "sensor port", "str", placeholder="required: e.g. /dev/ttyUSB0", text=True,
+                  address=True),
             Field("sensor", "baud", "sensor baud", "optint", placeholder="default: the protocol's own rate"),
             Field("controller", "url", "controller URL", "str",
-                  placeholder="required: e.g. modbus-tcp://192.168.0.10:502", text=True),
+                  placeholder="required: e.g. modbus-tcp://192.168.0.10:502", text=True, address=True),
             Field("controller", "word_order", "word order", "choice", ("ABCD", "CDAB"))]),
         ("Warm-up", [
             Field("warmup", "enabled", "warm-up", "bool"),
@@ -122,6 +134,9 @@ def straightness_fields(protocols: tuple[str, ...]) -> list[tuple[str, list[Fiel
             Field("validation", "jump_sensor_um", "jump sensor (um)", placeholder=_default(v.jump_sensor_um)),
             Field("validation", "capture_attempts", "capture attempts", "int",
                   placeholder=_default(v.capture_attempts))]),
+        (TOLERANCE_TITLE, [
+            Field("tolerance", "straightness_um", "straightness (um)", placeholder=NO_VERDICT),
+            Field("tolerance", "reference_line", "against the line", "choice", REFERENCE_LINES)]),
     ]
 
 
@@ -150,12 +165,26 @@ def positioning_fields(unit: str) -> list[tuple[str, list[Field]]]:
             Field("trigger", "timeout_s", "timeout (s)", placeholder=_default(120))]),
         ("Devices", [
             Field("controller", "url", "controller URL", "str",
-                  placeholder="required: e.g. modbus-tcp://192.168.0.10:502", text=True),
+                  placeholder="required: e.g. modbus-tcp://192.168.0.10:502", text=True, address=True),
             Field("controller", "word_order", "word order", "choice", ("ABCD", "CDAB")),
-            *([Field("transmitter", "url", "XY-MD02 URL", "str",
-                     placeholder="optional: the controller's environment unit", text=True)] if not rotary else [])]),
+            *([Field("transmitter", "url", "XY-MD02 URL", "str", placeholder="optional: the controller's "
+                     "environment unit", text=True, address=True)] if not rotary else [])]),
         *([("Environment (what the readings contain)", ENVIRONMENT_FIELDS)] if not rotary else []),
+        (TOLERANCE_TITLE, positioning_tolerance_fields("arcsec" if rotary else "um")),
     ]
+
+
+# the ISO 230-2 values of an axis the form offers a limit for (a set-up file may give the others:
+# A_up, R_down, ... saved_runs.evaluation.tolerance; they are kept)
+TOLERANCE_QUANTITIES = (("A", "A accuracy"), ("R", "R repeatability"), ("E", "E systematic"),
+                        ("M", "M mean error"), ("B", "B reversal"))
+
+
+def positioning_tolerance_fields(unit: str) -> list[Field]:
+    """[tolerance] of a positioning set-up: one limit per ISO 230-2 value, ``unit`` um or arcsec."""
+    # (a label has 22 columns: "R repeatability (arcsec)" is shortened)
+    return [Field("tolerance", f"{q}_{unit}", f"{label if len(label) + len(unit) < 20 else label[:10] + '.'} "
+                  f"({unit})", placeholder=NO_VERDICT) for q, label in TOLERANCE_QUANTITIES]
 
 
 # [environment] of a linear axis (docs/run-format.md); an angle is not air-compensated, so rotary has none.
@@ -245,7 +274,28 @@ def form_message(message: str, fields: list[Field], source: str = "set-up") -> s
 NUMBER_KEYS = frozenset("0123456789.,;-+eE ")
 
 
-class NumberInput(Input):
+class FieldInput(Input):
+    """A text field of the form.  Focusing it does not select its text: the next key types at the
+    end of the value, it never replaces a value the technician was not looking at."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("select_on_focus", False)
+        super().__init__(*args, **kwargs)
+
+
+    def check_consume_key(self, key: str, character: str | None) -> bool:
+        # ? opens the help (SetupScreen's binding), it is not typed: a name or a path has no ?
+        return character != "?" and super().check_consume_key(key, character)
+
+
+class AddressInput(FieldInput):
+    """A port or URL: ``?`` is typed into it (``modbus-rtu:/dev/ttyUSB1?baud=19200``); F1 opens the help."""
+
+    def check_consume_key(self, key: str, character: str | None) -> bool:
+        return character is not None and character.isprintable()
+
+
+class NumberInput(FieldInput):
     """A field for numbers: it takes the characters numbers are written with, so that the letter
     keys stay the form's (``q`` quits from here, as from a tick box)."""
 
@@ -358,18 +408,24 @@ class SetupScreen(Screen):
                 # q quits from every field but one that takes free text (there it is a letter; Esc leaves it):
                 # the number fields do not take letters (NumberInput)
                 Binding("q", "quit_form", "quit", show=False, priority=True),
+                # ? opens the help from every field but a port or URL (where it is part of the address):
+                # ahead of the field, which would type it; F1 opens it from everywhere (the application's)
+                Binding("question_mark", "help_here", "help", key_display="?/F1", priority=True),
                 Binding("escape", "leave_field", "leave the field", show=False)]
     DEFAULT_CSS = """
     SetupScreen #run-kind { layout: horizontal; width: 1fr; }
     SetupScreen #run-kind Choice { width: auto; margin-right: 1; }
-    SetupScreen .row:focus-within > .label { text-style: reverse; color: $text; }
+    SetupScreen .label.-focused { text-style: reverse; color: $text; }
     SetupScreen Tick:focus > .toggle--label, SetupScreen Choice:focus > .toggle--label { text-style: reverse; }
     SetupScreen #setup-form Input:focus { text-style: bold; }
     SetupScreen .box { height: auto; }
     SetupScreen .box > Vertical { height: auto; }
     SetupScreen.-wide #fields { layout: grid; grid-size: 2; grid-gutter: 0 2; grid-rows: auto; }
     SetupScreen #setup-status { height: 2; }
-    SetupScreen #file-error { padding-left: 1; }
+    SetupScreen #file-error, SetupScreen #file-note { padding-left: 1; }
+    SetupScreen #file-note { height: auto; display: none; }
+    SetupScreen #start-error { height: auto; padding: 0 1; text-style: bold; color: $error; display: none; }
+    SetupScreen .warning { height: auto; padding-left: 25; text-style: bold; color: $warning; display: none; }
     """
 
     def __init__(self, source: dict[str, Any] | None = None, *, setup_path: Path | None = None,
@@ -386,6 +442,14 @@ class SetupScreen(Screen):
         self._start_pending = False  # F5 pressed before the set-up could be checked
         self._starting = False  # F5 has started a run (until this screen is shown again)
         self.protocols: tuple[str, ...] = ()
+        self.warnings: list[tuple[Field, str]] = []  # not problems: the run starts, but the technician should know
+        self.start_error: str | None = None  # why the last F5 did not start the run (shown until the next F5)
+        self._clean: tuple[Any, ...] | None = None  # the form as loaded or saved (q asks when it differs)
+        self._reset_clean = True  # the next form built is the clean one (a load, the first form)
+        self._loaded_text: str | None = None  # the set-up file's text as loaded: a save keeps its comments
+        if setup_path is not None:
+            with contextlib.suppress(OSError, UnicodeDecodeError):
+                self._loaded_text = Path(setup_path).read_text(encoding="utf-8")
 
     # -- layout ---------------------------------------------------------------------------------
     def compose(self) -> ComposeResult:
@@ -393,12 +457,14 @@ class SetupScreen(Screen):
         with VerticalScroll(id="setup-form"):
             with Horizontal(classes="row"):
                 yield Static("set-up file", classes="label")
-                yield Input(str(self.setup_path or ""), placeholder="(none: a name, then ctrl+l load, ctrl+s save)",
+                yield FieldInput(str(self.setup_path or ""),
+                                 placeholder="(none: a name, then ctrl+l load, ctrl+s save)",
                             id="setup-file", compact=True)
             yield Static("", classes="error", id="file-error")
+            yield Static("", id="file-note")
             with Horizontal(classes="row"):
                 yield Static("run directory", classes="label")
-                yield Input(str(self.out or ""), placeholder="(default: RUNS/KIND-<UTC time>)", id="run-dir",
+                yield FieldInput(str(self.out or ""), placeholder="(default: RUNS/KIND-<UTC time>)", id="run-dir",
                             compact=True)
             yield Tick("simulated devices (the set-up's devices are not opened)", self.simulate, id="simulate")
             kind = run_kind_of(self.source)
@@ -406,6 +472,7 @@ class SetupScreen(Screen):
                 for value, label in RUN_KINDS:
                     yield Choice(label, value == kind, name=value)
             yield Vertical(Static("checking the set-up...", classes="section"), id="fields")
+        yield Static("", id="start-error")
         yield Static("checking the set-up...", id="setup-status")
         yield Footer()
 
@@ -414,6 +481,23 @@ class SetupScreen(Screen):
 
     def on_screen_resume(self) -> None:
         self._starting = False
+
+    def on_descendant_focus(self, event: Any) -> None:
+        self._mark_focused(event.widget)
+
+    def on_descendant_blur(self, event: Any) -> None:
+        self.call_after_refresh(lambda: self._mark_focused(self.focused))
+
+    def _mark_focused(self, widget: Any) -> None:
+        """The label of the focused field in reverse video, and no other (the highlight follows the focus)."""
+        row = next((a for a in widget.ancestors_with_self if a.has_class("row")), None) \
+            if widget is not None else None
+        mine = row.query_children(".label").first() if row is not None and row.query_children(".label") else None
+        for label in self.query(".label.-focused"):
+            if label is not mine:
+                label.remove_class("-focused")
+        if mine is not None:
+            mine.add_class("-focused")
 
     def on_resize(self) -> None:
         self.set_class(self.size.width >= 120, "-wide")  # two columns of sections on a wide terminal
@@ -486,10 +570,11 @@ class SetupScreen(Screen):
                     extra = (value,) if isinstance(value, str) and value not in f.choices else ()
                     widget = Pick(f.choices + extra, value if value in f.choices + extra else f.choices[0], id=f.id)
                 else:
-                    kind = Input if f.text else NumberInput
+                    kind = (AddressInput if f.address else FieldInput) if f.text else NumberInput
                     widget = kind(_text(value), placeholder=f.hint, id=f.id, compact=True)
                 widgets.append(Vertical(Horizontal(Static(f.label, classes="label"), widget, classes="row"),
-                                        Static("", classes="error", id=f"{f.id}-error")))
+                                        Static("", classes="error", id=f"{f.id}-error"),
+                                        Static("", classes="warning", id=f"{f.id}-warning")))
             boxes.append(Vertical(*widgets, classes="box"))
         self._building = True
         box.mount_all(boxes)
@@ -498,6 +583,9 @@ class SetupScreen(Screen):
     def _built(self) -> None:
         self._building = False
         self.check()
+        if self._reset_clean:
+            self._reset_clean = False
+            self._clean = self._form_state()
         if self._start_pending:
             self._start_pending = False
             self.action_start()
@@ -507,6 +595,7 @@ class SetupScreen(Screen):
         """Parse every field into ``self.source``; returns the fields whose text is not a value
         (those keys are taken out of the structure, so the loader's messages are about the rest)."""
         bad: dict[Field, str] = {}
+        had = {k for k, v in self.source.items() if isinstance(v, dict)}
         for f in self.fields():
             try:
                 widget = self.query_one(f"#{f.id}")
@@ -533,6 +622,12 @@ class SetupScreen(Screen):
         kind = run_kind_of(self.source)
         if kind != "straightness":
             self.source.setdefault("axis", {})["type"] = kind
+        for name in [k for k, v in self.source.items() if v == {} and k not in had]:
+            del self.source[name]  # a table only an empty field asked for ([transmitter] without its URL)
+        tolerance = self.source.get("tolerance")
+        if isinstance(tolerance, dict) and not set(tolerance) - {"reference_line"}:
+            # no limit given: no [tolerance] (the line alone, which the form always has, is no tolerance)
+            del self.source["tolerance"]
         return bad
 
     @staticmethod
@@ -583,6 +678,16 @@ class SetupScreen(Screen):
             problems.append((field_for_message(text, fields), form_message(text, fields)))
         self.problems = problems
         self.problem = problems[0][1] if problems else None
+        self.warnings = self._warnings(fields) if not problems else []
+        for w in self.query(".warning"):
+            w.display = False
+        for f, text in self.warnings:
+            try:
+                box = self.query_one(f"#{f.id}-warning", Static)
+            except Exception:  # noqa: BLE001 - the form is being rebuilt
+                continue
+            box.update(escape(text))
+            box.display = True
         shown: dict[str, list[str]] = {}
         for f, text in problems:
             shown.setdefault(f.id if f is not None else "file", []).append(text)
@@ -591,30 +696,94 @@ class SetupScreen(Screen):
         self._show_status()
         return not problems
 
+    def _warnings(self, fields: list[Field]) -> list[tuple[Field, str]]:
+        """What a valid set-up will not give: one run per direction has no standard deviation, so no A
+        and no R (ISO 230-2): a limit on them is NOT EVALUATED."""
+        from acquisition.setup.files import setup_from_dict
+
+        if run_kind_of(self.source) == "straightness":
+            return []
+        try:
+            setup: Any = setup_from_dict(copy.deepcopy(self.source), "set-up")
+        except SetupError:
+            return []
+        runs_field = next((f for f in fields if f.table == "axis" and f.key == "runs"), None)
+        if setup.runs >= 2 or runs_field is None:
+            return []
+        limits = sorted(k.split("_")[0] for k in setup.tolerance if k.split("_")[0] in ("A", "R"))
+        then = (f": the limit{'s' if len(set(limits)) > 1 else ''} on {' and '.join(sorted(set(limits)))} "
+                "will be NOT EVALUATED" if limits else "")
+        return [(runs_field, f"{setup.runs} run per direction cannot give A or R (they need 2+){then}")]
+
+    def _alert(self) -> str:
+        """The markup style of a problem: red, or bold in the normal foreground without colour (NO_COLOR)."""
+        return "b" if self.app.no_color else "red"
+
     def _show_status(self) -> None:
         status = self.query_one("#setup-status", Static)
         n = len(self.problems)
         if not self._checked and self._building:
             status.update("checking the set-up...")
         elif n == 0:
-            status.update("[green]set-up valid[/green]: F5 starts the run")
+            note = f" · note: {escape(self.warnings[0][1])}" if self.warnings else ""
+            if self.start_error is not None:  # the set-up is valid, the devices are not: never "valid" alone
+                status.update(f"set-up valid, [{self._alert()}]but the run did not start[/] (above): F5 tries again")
+            else:
+                status.update(f"[{'b' if self.app.no_color else 'green'}]set-up valid[/]: F5 starts the run{note}")
         else:
             more = f" ({n} problems, each under its field)" if n > 1 else ""
-            status.update(f"[red]set-up not valid{more}:[/red] {escape(self.problems[0][1])}")
+            status.update(f"[{self._alert()}]set-up not valid{more}:[/] {escape(self.problems[0][1])}")
 
     def _show(self, key: str, text: str) -> None:
         try:
             err = self.query_one("#file-error" if key == "file" else f"#{key}-error", Static)
         except Exception:
             return
-        err.update(f"[red]{escape(text)}[/red]")
+        err.update(escape(text))  # (its colour: .error in the stylesheet, bold without colour)
         err.display = True
+
+    def _file_note(self, text: str, problem: bool = False) -> None:
+        """A line under the set-up file about loading or saving it (cleared when the name changes)."""
+        note = self.query_one("#file-note", Static)
+        note.update(f"[{self._alert()}]{escape(text)}[/]" if problem and text else escape(text))
+        note.display = bool(text)
+
+    def show_start_error(self, error: str) -> None:
+        """The run did not start (a device that cannot be opened): said in plain words above the status
+        line until the next F5; the driver's own line only in the log."""
+        from acquisition.fault_words import start_words
+
+        self._starting = False
+        sensor_port = (self.source.get("sensor") or {}).get("port")
+        words = start_words(error, {sensor_port: "sensor"} if isinstance(sensor_port, str) else None)
+        self.start_error = error
+        box = self.query_one("#start-error", Static)
+        box.update(f"The run did not start. {escape(words.what)}\n{escape(words.check)}")
+        box.display = True
+        self._show_status()
+
+    def _form_state(self) -> tuple[Any, ...]:
+        """What the technician can edit of the set-up: the run kind and every field's value."""
+        values = []
+        for f in self.fields():
+            try:
+                values.append((f.id, self.query_one(f"#{f.id}").value))  # type: ignore[attr-defined]
+            except Exception:  # noqa: BLE001 - the form is being rebuilt
+                values.append((f.id, None))
+        return (run_kind_of(self.source), tuple(values))
+
+    @property
+    def edited(self) -> bool:
+        """The form differs from the set-up as loaded (or last saved)."""
+        return self._clean is not None and (self._building or self._form_state() != self._clean)
 
     @on(Input.Changed)
     @on(Checkbox.Changed)
     @on(Pick.Changed)
     def _changed(self, event: Any) -> None:
         if getattr(event, "input", None) is not None and event.input.id in ("setup-file", "run-dir"):
+            if event.input.id == "setup-file":
+                self._file_note("")
             return
         if getattr(event, "checkbox", None) is not None and event.checkbox.id == "simulate":
             self.simulate = event.value
@@ -683,10 +852,26 @@ class SetupScreen(Screen):
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         if action == "quit_form":  # (a field of free text keeps its letters: Textual does not offer it q)
             return not (isinstance(self.focused, Input) and not isinstance(self.focused, NumberInput))
+        if action == "help_here":  # a port or URL keeps its ? (F1 opens the help there)
+            return not isinstance(self.focused, AddressInput)
         return True
 
+    def action_help_here(self) -> None:
+        self.app.action_help()  # type: ignore[attr-defined]
+
     def action_quit_form(self) -> None:
-        self.app.exit()
+        """q: quit; with changes not saved, ask first."""
+        if not self.edited:
+            self.app.exit()
+            return
+
+        def answered(yes: bool | None) -> None:
+            if yes:
+                self.app.exit()
+
+        self.app.push_screen(ConfirmScreen("Quit without saving?", "The set-up on the form has changes that are "
+                                           "not saved (Ctrl+S saves them to the set-up file). Quit and lose "
+                                           "them?"), answered)
 
     def action_leave_field(self) -> None:
         self.set_focus(None)
@@ -695,7 +880,7 @@ class SetupScreen(Screen):
     def _path(self) -> Path | None:
         text = self.query_one("#setup-file", Input).value.strip()
         if not text:
-            self.query_one("#setup-status", Static).update("[red]give the set-up file name first[/red]")
+            self._file_note("give the set-up file name first", problem=True)
             self.query_one("#setup-file", Input).focus()
             return None
         return Path(text)
@@ -707,13 +892,18 @@ class SetupScreen(Screen):
         if path is None:
             return
         try:
-            self.load(read_toml(path))
-        except SetupError as exc:
-            self.query_one("#setup-status", Static).update(f"[red]{escape(str(exc))}[/red]")
+            source = read_toml(path)
+            text = path.read_text(encoding="utf-8")
+        except (SetupError, OSError, UnicodeDecodeError) as exc:
+            self._file_note(f"cannot load: {exc}", problem=True)
             return
+        self._loaded_text = text
+        self.load(source)
+        self._file_note(f"loaded from {path}")
         self.notify(f"set-up loaded from {path}", markup=False)
 
     def load(self, source: dict[str, Any]) -> None:
+        self._reset_clean = True
         self.source = copy.deepcopy(source)
         radios = self.query_one("#run-kind", RadioSet)
         kind = run_kind_of(self.source)
@@ -722,18 +912,46 @@ class SetupScreen(Screen):
         self.build_fields()
 
     def action_save(self) -> None:
-        from acquisition.setup.files import setup_toml_text
-        from saved_runs.store.files import write_text_atomic
-
+        """Ctrl+S: save the form's set-up to the file named; an existing file is overwritten only when the
+        technician says so, and keeps its comments and the keys the form does not show."""
         path = self._path()
         if path is None:
             return
         self.read_form()
-        try:
-            write_text_atomic(path, setup_toml_text(self.source))
-        except (SetupError, OSError) as exc:
-            self.query_one("#setup-status", Static).update(f"[red]cannot save: {escape(str(exc))}[/red]")
+        if not path.exists():
+            self.save(path)
             return
+
+        def answered(yes: bool | None) -> None:
+            if yes:
+                self.save(path)
+            else:
+                self._file_note("not saved")
+
+        self.app.push_screen(ConfirmScreen("Overwrite the set-up file?", f"{path} exists. Overwrite it with the "
+                                           "set-up on the form? Its comments and the keys the form does not "
+                                           "show are kept."), answered)
+
+    def save(self, path: Path) -> None:
+        """Write the form's set-up to ``path`` over the file's own text (``path``'s, else the file loaded):
+        every comment stays (acquisition.setup.files.setup_toml_update)."""
+        from acquisition.setup.files import setup_toml_update
+        from saved_runs.store.files import write_text_atomic
+
+        self.read_form()
+        try:
+            base = path.read_text(encoding="utf-8") if path.exists() else self._loaded_text
+        except (OSError, UnicodeDecodeError):
+            base = None
+        try:
+            text = setup_toml_update(base, self.source)
+            write_text_atomic(path, text)
+        except (SetupError, OSError) as exc:
+            self._file_note(f"cannot save: {exc}", problem=True)
+            return
+        self._loaded_text = text
+        self._clean = self._form_state()
+        self._file_note(f"saved to {path}")
         self.notify(f"set-up saved to {path}", markup=False)
 
     def action_start(self) -> None:
@@ -741,6 +959,10 @@ class SetupScreen(Screen):
         the first field with a problem takes the focus (the problems stay shown until fixed)."""
         if self._starting:  # a second F5 before the run's screen is up: one run
             return
+        if self.start_error is not None:
+            self.start_error = None
+            self.query_one("#start-error", Static).display = False
+            self._show_status()
         if not self._checked:
             self._start_pending = True
             self.query_one("#setup-status", Static).update("checking the set-up... (F5: the run starts when "
