@@ -205,6 +205,7 @@ def write_export(run_dir: Path | str, options: ExportOptions, out: Path | None =
     """Build the export of a positioning run (:func:`export_run`) and write it (atomically) to ``out``
     or :func:`export_path`."""
     from ..store.files import write_text_atomic
+    from ..store.stale_temps import remove_own_stale_temps
 
     run, export = export_run(run_dir, options, accept_out_of_range=accept_out_of_range)
     path = out or export_path(run.path, export, options.fmt)
@@ -213,6 +214,7 @@ def write_export(run_dir: Path | str, options: ExportOptions, out: Path | None =
                         f"e.g. {path / f'compensation-{options.fmt}{export.suffix}'}")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
+        remove_own_stale_temps(path.parent, [path.name])  # what a killed export of this table left
         write_text_atomic(path, export.text)
     except OSError as exc:
         raise UserError(f"cannot write the table to {path}: {exc.strerror or exc}") from None

@@ -18,6 +18,7 @@ from typing import Any
 from ..errors import UserError
 from ..store.files import write_json_atomic, write_text_atomic
 from ..store.fixed_csv import fixed_csv
+from ..store.stale_temps import remove_own_stale_temps
 from .field import FieldResult, field_summary
 
 FILES = ("volumetric.csv", "contributions.csv", "summary.json", "report.html")
@@ -32,6 +33,7 @@ def write_field(result: FieldResult, out_dir: Path | str, *, command: str = "") 
         raise UserError(f"--out {out} exists and is not a directory; choose another --out")
     try:
         out.mkdir(parents=True, exist_ok=True)
+        remove_own_stale_temps(out, FILES)  # what a killed grid writer left
         summary = field_summary(result)
         for name, table in (("volumetric.csv", result.table()), ("contributions.csv", result.contribution_table())):
             # the text of to_csv(float_format="%.6f"), formatted on whole arrays (a --grid 50 has 4.4 M values)
