@@ -12,6 +12,7 @@ Each file is replaced atomically.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -24,8 +25,15 @@ from .field import FieldResult, field_summary
 FILES = ("volumetric.csv", "contributions.csv", "summary.json", "report.html")
 
 
-def write_field(result: FieldResult, out_dir: Path | str, *, command: str = "") -> dict[str, Any]:
-    """Write the four files into ``out_dir`` (created if needed); return the summary object."""
+def write_field(result: FieldResult, out_dir: Path | str, *, command: str = "",
+                progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """Write the four files into ``out_dir`` (created if needed); return the summary object.
+    ``progress(done, 4)`` after each file (a front end's progress display)."""
+
+    def written(name: str) -> None:
+        if progress is not None:
+            progress(FILES.index(name) + 1, len(FILES))
+
     from .report import volumetric_page  # matplotlib only when writing
 
     out = Path(out_dir)
@@ -38,8 +46,11 @@ def write_field(result: FieldResult, out_dir: Path | str, *, command: str = "") 
         for name, table in (("volumetric.csv", result.table()), ("contributions.csv", result.contribution_table())):
             # the text of to_csv(float_format="%.6f"), formatted on whole arrays (a --grid 50 has 4.4 M values)
             write_text_atomic(out / name, fixed_csv(list(table.columns), table.to_numpy(dtype=float)))
+            written(name)
         write_json_atomic(out / "summary.json", summary)
+        written("summary.json")
         write_text_atomic(out / "report.html", volumetric_page(result, summary, command).render())
+        written("report.html")
     except OSError as exc:
         raise UserError(f"cannot write the results to {out}: {exc.strerror or exc}") from None
     return summary

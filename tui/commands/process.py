@@ -12,10 +12,16 @@ from typing import Any
 def run(args: argparse.Namespace) -> int:
     from saved_runs.evaluation.evaluate import process_run_dir
 
-    run_, result = process_run_dir(args.run_dir, **evaluator_options(args))
-    warn_about_run(run_, "processing the")
-    if not args.no_write:
-        result.write(run_.path / "results")
+    from .progress import progress_display, short
+
+    options = evaluator_options(args)
+    with progress_display(json_output=args.json) as stages:
+        trials = stages.stage(f"evaluating {short(args.run_dir)} (Monte Carlo trials)")
+        run_, result = process_run_dir(args.run_dir, progress=trials, **options)
+        warn_about_run(run_, "processing the")
+        if not args.no_write:
+            stages.stage("writing results")
+            result.write(run_.path / "results")
     if args.json:
         json.dump(result.to_dict(), sys.stdout, allow_nan=False)
         sys.stdout.write("\n")
