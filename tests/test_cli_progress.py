@@ -142,3 +142,37 @@ def test_volumetric_grid_shows_its_files(tmp_path: Path) -> None:
     code2, out2, err2 = piped("volumetric", EXAMPLE_MACHINE, "--out", tmp_path / "b", "--grid", "4", tmp_dir=tmp_path)
     assert code2 == 0 and ESC not in err2 and b"poses" not in err2
     assert out2.replace(b"/b", b"/X") == out.replace(b"/a", b"/X")
+
+
+# -- the callbacks below the front end: counts rise to their total, and the results do not change -----------
+def test_monte_carlo_progress_counts_every_trial_and_changes_nothing(runs: Path) -> None:
+    from saved_runs.evaluation.evaluate import process_run_dir
+
+    seen: list[tuple[int, int]] = []
+    _, quiet = process_run_dir(runs / "run1", mc_trials=3000)
+    _, counted = process_run_dir(runs / "run1", mc_trials=3000, progress=lambda d, t: seen.append((d, t)))
+    assert seen and seen[-1] == (3000, 3000) and all(t == 3000 for _, t in seen)
+    assert [d for d, _ in seen] == sorted({d for d, _ in seen})  # strictly rising
+    assert counted.to_dict() == quiet.to_dict()
+
+
+def test_diagnose_progress_counts_earlier_runs_then_channels(runs: Path) -> None:
+    from saved_runs.diagnosis.diagnose import diagnose_run
+
+    seen: list[tuple[int, int]] = []
+    quiet = diagnose_run(runs / "run1", noise_from=[runs / "run2"])
+    counted = diagnose_run(runs / "run1", noise_from=[runs / "run2"], progress=lambda d, t: seen.append((d, t)))
+    # 1 earlier run + the height and lin channels = 3 steps, each counted once, from 0
+    assert seen == [(0, 3), (1, 3), (2, 3), (3, 3)]
+    assert counted.to_dict() == quiet.to_dict()
+
+
+def test_catalog_progress_counts_the_runs(runs: Path, tmp_path: Path) -> None:
+    from fleet.catalog.database import open_catalog
+    from fleet.catalog.runs import add_runs, scan_run_dirs
+
+    seen: list[tuple[int, int]] = []
+    with open_catalog(f"sqlite:///{tmp_path / 'c.db'}", create=True) as cat:
+        outcomes = list(add_runs(cat, scan_run_dirs(runs), progress=lambda d, t: seen.append((d, t))))
+    assert [o.action for o in outcomes] == ["added"] * 3
+    assert seen == [(0, 3), (1, 3), (2, 3), (3, 3)]
