@@ -95,3 +95,21 @@ def test_volumetric_export_rerun_removes_its_stale_temp_files(tmp_path: Path) ->
     assert guideway("volumetric", EXAMPLE, "--export", "linuxcnc", "--out", out, "--grid", "3").returncode == 0
     assert not any(p.exists() for p in stale)
     assert foreign.exists() and all(p.exists() or p.is_symlink() for p in keep)
+
+
+def test_volumetric_killed_mid_write_then_rerun_leaves_no_temp_file(tmp_path: Path) -> None:
+    """The real thing: SIGKILL while a grid file is being written (its temporary file exists), then a rerun."""
+    from tests.cli import kill_when
+
+    out = tmp_path / "grid"
+
+    def writing() -> bool:
+        return out.is_dir() and any(p.name.endswith(".tmp") for p in out.iterdir())
+
+    # 50 per axis: 125,000 poses, volumetric.csv and contributions.csv take a while to write
+    kill_when(writing, "volumetric", EXAMPLE, "--out", out, "--grid", "50", tmp_dir=tmp_path / "tmp",
+              what="a grid file being written")
+    assert any(p.name.endswith(".tmp") for p in out.iterdir())  # what the kill left
+    res = guideway("volumetric", EXAMPLE, "--out", out, "--grid", "3")
+    assert res.returncode == 0, res.stderr
+    assert sorted(p.name for p in out.iterdir()) == sorted(GRID_FILES)
