@@ -10,14 +10,17 @@ from typing import Any
 
 
 def run(args: argparse.Namespace) -> int:
-    from saved_runs.evaluation.evaluate import process_run_dir
+    from saved_runs.evaluation.evaluate import evaluate_run
+    from saved_runs.store.reader import load_run
 
     from .progress import progress_display, short
 
     options = evaluator_options(args)
-    with progress_display(json_output=args.json) as stages:
-        trials = stages.stage(f"evaluating {short(args.run_dir)} (Monte Carlo trials)")
-        run_, result = process_run_dir(args.run_dir, progress=trials, **options)
+    with progress_display(json_output=args.json) as stages:  # saved_runs' process_run_dir, in stages
+        stages.stage(f"reading {short(args.run_dir)}")
+        run_ = load_run(args.run_dir)
+        mc = " (Monte Carlo trials)" if run_.kind == "straightness" else ""  # the long part; positioning: none
+        result = evaluate_run(run_, progress=stages.stage(f"evaluating {short(args.run_dir)}{mc}"), **options)
         warn_about_run(run_, "processing the")
         if not args.no_write:
             stages.stage("writing results")
