@@ -4,6 +4,7 @@ uncertainty."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -108,10 +109,12 @@ def evaluate_straightness(
     uncertainty: UncertaintyInputs | None = None,
     mc_trials: int = 10_000,
     mc_seed: int = 0,
+    mc_progress: Callable[[int, int], None] | None = None,
 ) -> StraightnessResult:
     """Decouple every point, average each station over its passes, fit the three
     reference lines, find the dominant wavelengths and, when ``uncertainty`` is
-    given, the GUM per-station and (``mc_trials`` > 0) Monte Carlo uncertainties."""
+    given, the GUM per-station and (``mc_trials`` > 0) Monte Carlo uncertainties
+    (``mc_progress(done, trials)`` after each chunk of trials)."""
     check_method(method)
     check_order(points)
     dec = decouple_run(points, geometry, method)
@@ -129,7 +132,7 @@ def evaluate_straightness(
         slope = profile_slope(x, h)
         u = gum_per_station(points, geometry, method, uncertainty, groups, slope)
         mc = (monte_carlo(points, geometry, method, uncertainty, groups, x, slope, trials=mc_trials,
-                          seed=mc_seed, lines=tuple(lines)) if mc_trials > 0 and lines else None)
+                          seed=mc_seed, lines=tuple(lines), progress=mc_progress) if mc_trials > 0 and lines else None)
         unc = Uncertainty(uncertainty, u, mc)
     return StraightnessResult(
         method=method, profile=profile, lines=lines, uncertainty=unc,

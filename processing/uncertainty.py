@@ -44,6 +44,7 @@ probabilistically symmetric 95 % coverage interval is given too.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
@@ -252,8 +253,11 @@ def monte_carlo(points: pd.DataFrame, geometry: BlockGeometry, method: str, inpu
                 groups: StationGroups, x_out: np.ndarray, slope_um_per_mm: np.ndarray, *,
                 trials: int = 10_000, seed: int = 0,
                 lines: tuple[str, ...] = ("endpoint", "least_squares", "minimum_zone"),
-                chunk_elements: int = MC_CHUNK_ELEMENTS) -> MonteCarloResult:
+                chunk_elements: int = MC_CHUNK_ELEMENTS,
+                progress: Callable[[int, int], None] | None = None) -> MonteCarloResult:
     """Seeded Monte Carlo propagation (GUM-S1) through the selected decoupling method.
+
+    ``progress(done, trials)`` is called after each chunk of trials (a front end's progress display).
 
     The trials are evaluated ``chunk_elements // points`` at a time (at least one): memory is
     bounded whatever the run's size, and the result does not depend on the chunking to the last
@@ -284,5 +288,7 @@ def monte_carlo(points: pd.DataFrame, geometry: BlockGeometry, method: str, inpu
             s1 = s1 + d
             s2 = s2 + d * d
         done += m
+        if progress is not None:
+            progress(done, trials)
     var = (s2 - s1 * s1 / trials) / (trials - 1)
     return MonteCarloResult(trials, seed, np.sqrt(np.maximum(var, 0.0)), per_line)

@@ -17,6 +17,7 @@ from saved_runs.evaluation.tolerance import positioning_tolerance
 from saved_runs.toml_file import TomlTable, naming_source, read_toml
 
 from .compensation import CompensationSetup, compensation_setup
+from .conditions import check_conditions
 from .cycles import CYCLES, Cycle, check_targets, cycle, linear_targets, rotary_targets
 from .maxima import check_size
 from .shared_tables import DeviceSetup, catalog_table, check_devices, controller_timing_keys, scenario_path
@@ -93,6 +94,20 @@ class SimulatedAxisSetup:
         """The error-model values (without the environment)."""
         return (self.pitch_amplitude, self.pitch_wavelength, self.slope_per_m, self.backlash, self.periodic,
                 self.periodic_period, self.thermal_per_m_per_h, self.noise)
+
+
+def check_simulated_axis(sim: SimulatedAxisSetup, where: str) -> None:
+    """The ``[simulation]`` values within their bounds (one line naming the key): the conditions within the
+    plausible ranges of :mod:`.conditions`, the error values finite, the periods positive, the noise >= 0."""
+    check_conditions(asdict(sim), where)
+    for key in ("pitch_amplitude", "slope_per_m", "backlash", "periodic", "thermal_per_m_per_h"):
+        if not math.isfinite(v := getattr(sim, key)):
+            raise SetupError(f"{where} {key} = {v:g} must be a finite number")
+    for key in ("pitch_wavelength", "periodic_period"):
+        if not (math.isfinite(v := getattr(sim, key)) and v > 0):
+            raise SetupError(f"{where} {key} = {v:g} must be a positive number (a period along the axis)")
+    if not (math.isfinite(sim.noise) and sim.noise >= 0):
+        raise SetupError(f"{where} noise = {sim.noise:g} is a standard deviation and must be a number >= 0")
 
 
 @dataclass(frozen=True)
@@ -313,6 +328,7 @@ def _positioning_setup(data: dict[str, Any], source: str, nc_checked: bool = Tru
     s = SimulatedAxisSetup()
     simulation = SimulatedAxisSetup(**{k: sim.get(k, bool if isinstance(v, bool) else float, v)
                                        for k, v in asdict(s).items()})
+    check_simulated_axis(simulation, f"{source}: [simulation]")
     tolerance = positioning_tolerance(top.table("tolerance").data, "arcsec" if axis_type == "rotary" else "um",
                                       source)
     scenario = scenario_path(sim.get("scenario", str, ""), source)

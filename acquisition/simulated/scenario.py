@@ -24,6 +24,7 @@ from saved_runs.diagnosis.model_file import effects_from_tables, file_kind
 from saved_runs.errors import SetupError
 from saved_runs.toml_file import TomlTable, read_toml
 
+from ..setup.conditions import check_conditions
 from ..setup.positioning import PositioningSetup, positioning_setup_from_dict
 from ..setup.straightness import StraightnessSetup, straightness_setup_from_dict
 from .sensors import default_block
@@ -106,6 +107,7 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "scenario") -> Sce
                 raise SetupError(f"{source}: [motion] {key} must be positive, got {motion[key]}")
         if not conditions["cycle_period_min"] > 0:
             raise SetupError(f"{source}: [conditions] cycle_period_min must be positive")
+        check_conditions(conditions, f"{source}: [conditions]")
         top.check_unknown()
         return Scenario(kind, effects, source, seed, positioning=setup, setup_source=setup_source, noise=noise,
                         conditions=conditions, motion=motion)

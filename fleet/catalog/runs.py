@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -147,11 +147,13 @@ def _check_lengths(f: RunFiles) -> None:
                                 f"at most {limit}: shorten it in run.json and add the run again")
 
 
-def add_runs(cat: Catalog, run_dirs: Iterable[Path | str]) -> Iterator[AddOutcome]:
+def add_runs(cat: Catalog, run_dirs: Iterable[Path | str], *,
+             progress: Callable[[int, int], None] | None = None) -> Iterator[AddOutcome]:
     """Add each run directory to the catalogue, yielding what happened to each (the unreadable ones first,
     then the others): an unreadable directory is reported and the others are added.  An ``added``,
     ``updated`` or ``moved`` outcome is yielded once its row is written, so that a database failing half
-    way has not been told as having added what it has not."""
+    way has not been told as having added what it has not.  ``progress(done, total)``: the readable runs
+    looked at (each new or edited one evaluated), for a front end's progress display."""
     read: list[RunFiles] = []
     for d in run_dirs:
         try:
@@ -166,7 +168,9 @@ def add_runs(cat: Catalog, run_dirs: Iterable[Path | str]) -> Iterator[AddOutcom
     moves: list[tuple[str, str]] = []
     moved: list[AddOutcome] = []
     seen: dict[str, str] = {}
-    for f in read:
+    for done, f in enumerate(read):
+        if progress is not None:
+            progress(done, len(read))
         path = str(f.path)
         if f.uid in seen:
             yield AddOutcome(path, "copy", f"copy: {path} holds run {f.uid}, as {seen[f.uid]} does; left out", f.uid)
@@ -198,6 +202,8 @@ def add_runs(cat: Catalog, run_dirs: Iterable[Path | str]) -> Iterator[AddOutcom
         if len(pending) >= BATCH:
             yield from _written(cat, pending, told)
             pending, told = [], []
+    if progress is not None:
+        progress(len(read), len(read))
     yield from _written(cat, pending, told)
     _set_path(cat, moves)
     yield from moved

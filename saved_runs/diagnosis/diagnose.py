@@ -11,6 +11,7 @@ summary, an HTML report with a plot per step, and the final model as a reusable 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, TextIO
@@ -280,13 +281,15 @@ def _straightness(run: LoadedRun, reference: bool) -> tuple[Observations, Observ
 
 def diagnose_run(run_dir: Path | str, model: EffectModel | Path | str | None = None,
                  rule: Rule | None = None, *, accept_out_of_range: bool = False,
-                 noise_from: tuple[Path | str, ...] | list[Path | str] = ()) -> Diagnosis:
+                 noise_from: tuple[Path | str, ...] | list[Path | str] = (),
+                 progress: Callable[[int, int], None] | None = None) -> Diagnosis:
     """Diagnose the run in ``run_dir`` against ``model`` (a model file, a loaded model, or None: nothing known).
 
     Values outside the set-up's validation limits are refused as ``process`` refuses them
     (saved_runs.evaluation.limits) unless ``accept_out_of_range``; accepted ones are listed in the notes.
     ``noise_from``: earlier runs of the same machine and axis whose errors' AR(1) coefficient is pooled
-    with this run's (:func:`noise_history`)."""
+    with this run's (:func:`noise_history`).  ``progress(done, total)``: the steps done, each earlier run
+    diagnosed and each channel of this run (a front end's progress display)."""
     run = load_run(run_dir)
     accepted = out_of_range(run, accept=accept_out_of_range) if len(run.points) else ()
     if model is None:
@@ -296,10 +299,18 @@ def diagnose_run(run_dir: Path | str, model: EffectModel | Path | str | None = N
     if model.kind != run.kind:
         raise UserError(f"{model.source} is a {model.kind} model; {run.path} is a {run.kind} run")
     channels, notes = [], [f"accepted outside the set-up's limits: {a.text()}" for a in accepted]
-    history, history_notes = noise_history(run, model, noise_from, accept_out_of_range=accept_out_of_range)
-    notes += history_notes
-    observed = run_observations(run, model)
+    observed = run_observations(run, model)  # before the history: the number of steps is known from the start
     usable = [obs for obs in observed if obs.n >= 3]
+    steps = len(noise_from) + len(usable)
+
+    def step(done: int, _total: int = 0) -> None:
+        if progress is not None:
+            progress(done, steps)
+
+    step(0)
+    history, history_notes = noise_history(run, model, noise_from, accept_out_of_range=accept_out_of_range,
+                                           progress=step)
+    notes += history_notes
     rule = replace(rule or default_rule(run.kind), channels=len(usable))  # alpha is shared by the channels
     for obs in observed:
         notes += obs.notes
@@ -310,6 +321,7 @@ def diagnose_run(run_dir: Path | str, model: EffectModel | Path | str | None = N
             channels.append(diagnose_channel(obs, effects, replace(rule, ar1_history=history.get(obs.channel, ()))))
         except ValueError as exc:
             raise UserError(f"{run.path}: {obs.channel} channel: {exc}") from None
+        step(len(noise_from) + len(channels))
     if not channels:
         raise RunFormatError(f"{run.path}: no channel holds enough points to diagnose")
     notes += [note for ch in channels if (note := correlation_note(ch))]
@@ -356,15 +368,17 @@ def correlation_note(ch: ChannelDiagnosis) -> str:
 
 
 def noise_history(run: LoadedRun, model: EffectModel, earlier: tuple[Path | str, ...] | list[Path | str],
-                  *, accept_out_of_range: bool = False) -> tuple[dict[str, tuple[serial.Ar1Estimate, ...]], list[str]]:
+                  *, accept_out_of_range: bool = False, progress: Callable[[int, int], None] | None = None,
+                  ) -> tuple[dict[str, tuple[serial.Ar1Estimate, ...]], list[str]]:
     """The AR(1) coefficient of every channel's errors in each ``earlier`` run: each is diagnosed against
     ``model`` on its own, and φ is estimated from the residual of its final model (an effect it holds is then
     in that model, not taken for correlation).  Returns the estimates per channel and notes (another machine or
-    axis, no time recorded).  A run of another kind, or the run itself, is refused."""
+    axis, no time recorded).  A run of another kind, or the run itself, is refused.  ``progress(done, total)``:
+    after each earlier run."""
     history: dict[str, list[serial.Ar1Estimate]] = {}
     notes: list[str] = []
     seen = {run.path.resolve()}
-    for path in earlier:
+    for done, path in enumerate(earlier):
         other = load_run(path)
         where = other.path.resolve()
         if where in seen:
@@ -391,6 +405,8 @@ def noise_history(run: LoadedRun, model: EffectModel, earlier: tuple[Path | str,
             if not math.isnan(phi):
                 history.setdefault(ch.obs.channel, []).append(
                     serial.Ar1Estimate(phi, ch.obs.n, interval, str(other.path)))
+        if progress is not None:
+            progress(done + 1, len(earlier))
     return {k: tuple(v) for k, v in history.items()}, notes
 
 

@@ -79,7 +79,10 @@ def _toml_value(v: Any) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, int | float):
-        return repr(float(v)) if math.isfinite(v) else "nan"
+        if math.isfinite(v):
+            return repr(float(v))
+        # TOML's own literals: +inf and -inf are not nan (a fitted value that ran away keeps its sign)
+        return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
     if isinstance(v, list | tuple):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     return toml_string(str(v))

@@ -43,11 +43,14 @@ def option_flags(names: Any) -> str:
     return ", ".join(f"--{n.replace('_', '-')}" for n in names)
 
 
-def evaluate_run(run: LoadedRun, **options: Any) -> Evaluation:
+def evaluate_run(run: LoadedRun, *, progress: Callable[[int, int], None] | None = None,
+                 **options: Any) -> Evaluation:
     """Evaluate a loaded run with the evaluator for its kind.
 
     ``options`` that are None are left out; one that the run's kind does not take is a
-    one-line :class:`UserError` (e.g. ``--method`` on a positioning run)."""
+    one-line :class:`UserError` (e.g. ``--method`` on a positioning run).  ``progress(done, total)``:
+    the straightness evaluator's Monte Carlo trials (the long part of a big run; a positioning
+    evaluation is quick and reports nothing)."""
     try:
         evaluator = EVALUATORS[run.kind]
     except KeyError:
@@ -57,10 +60,13 @@ def evaluate_run(run: LoadedRun, **options: Any) -> Evaluation:
     if wrong:
         raise UserError(f"{option_flags(wrong)}: not an option for {run.kind} runs ({run.path} is one; "
                         f"they take {option_flags(EVALUATOR_OPTIONS[run.kind])})")
+    if progress is not None and run.kind == "straightness":
+        options["progress"] = progress
     return evaluator(run, **options)
 
 
-def process_run_dir(run_dir: Path | str, **options: Any) -> tuple[LoadedRun, Evaluation]:
-    """Load and evaluate ``run_dir``."""
+def process_run_dir(run_dir: Path | str, *, progress: Callable[[int, int], None] | None = None,
+                    **options: Any) -> tuple[LoadedRun, Evaluation]:
+    """Load and evaluate ``run_dir`` (``progress``: as :func:`evaluate_run`)."""
     run = load_run(run_dir)
-    return run, evaluate_run(run, **options)
+    return run, evaluate_run(run, progress=progress, **options)

@@ -3,6 +3,7 @@ result files and the printed summary."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -127,12 +128,14 @@ def run_geometry(run: LoadedRun) -> BlockGeometry:
 
 
 def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, mc_trials: int | None = None,
-                              mc_seed: int = 0, accept_out_of_range: bool = False) -> StraightnessEvaluation:
+                              mc_seed: int = 0, accept_out_of_range: bool = False,
+                              progress: Callable[[int, int], None] | None = None) -> StraightnessEvaluation:
     """Evaluate a loaded straightness run.
 
     ``mc_trials``: Monte Carlo trials for the straightness uncertainty; 0 skips it, None takes
     :func:`default_mc_trials` of the number of points.  Values outside the set-up's validation
-    limits are refused unless ``accept_out_of_range`` (.limits).
+    limits are refused unless ``accept_out_of_range`` (.limits).  ``progress(done, trials)``: after each
+    chunk of Monte Carlo trials, the long part of a big run (a front end's progress display).
     """
     geometry = run_geometry(run)
     plan = check_straightness_points(run)
@@ -149,7 +152,7 @@ def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, m
         mc_trials = default_mc_trials(len(run.points))
     try:
         result = evaluate_straightness(run.points, geometry, method=method, uncertainty=inputs,
-                                       mc_trials=mc_trials, mc_seed=mc_seed)
+                                       mc_trials=mc_trials, mc_seed=mc_seed, mc_progress=progress)
     except ValueError as exc:
         raise RunFormatError(f"{run.path}: {exc}") from exc
     u = result.uncertainty.to_dict().get("straightness", {}) if result.uncertainty is not None else {}

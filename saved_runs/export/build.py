@@ -218,6 +218,7 @@ def write_export(run_dir: Path | str, options: ExportOptions, out: Path | None =
     or :func:`export_path`."""
     from ..errors import FileWriteError, what_to_do
     from ..store.files import write_text_atomic
+    from ..store.stale_temps import remove_own_stale_temps
 
     run, export = export_run(run_dir, options, accept_out_of_range=accept_out_of_range)
     path = out or export_path(run.path, export, options.fmt)
@@ -226,6 +227,7 @@ def write_export(run_dir: Path | str, options: ExportOptions, out: Path | None =
                         f"e.g. {path / f'compensation-{options.fmt}{export.suffix}'}")
     try:
         # inside a run (RUN/results/compensation-*) no link is followed, in the file's place or its folder's
+        remove_own_stale_temps(path.parent, [path.name])  # what a killed export of this table left
         write_text_atomic(path, export.text, make_parents=True)
     except FileWriteError as exc:
         raise UserError(f"cannot write the table to {path}: {exc.reason}{what_to_do(exc.errno)}") from None

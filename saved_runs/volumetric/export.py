@@ -31,6 +31,7 @@ from processing.volumetric.evaluate import evaluate, nominal
 
 from ..errors import UserError
 from ..store.files import write_text_atomic
+from ..store.stale_temps import remove_own_stale_temps
 from .field import column_name, flat_positions, grid_positions
 from .machine_file import MachineFile
 
@@ -89,6 +90,8 @@ def export_model(machine: MachineFile, fmt: str, out_dir: Path | str, *, count: 
     files = []
     try:
         out.mkdir(parents=True, exist_ok=True)
+        # what a killed export of these tables left
+        remove_own_stale_temps(out, [*(f"{t.axis}{SUFFIX[fmt]}" for t in tables), "cross-terms.csv"])
         for t in tables:
             path = out / f"{t.axis}{SUFFIX[fmt]}"
             write_text_atomic(path, texts[t.axis], inside=out)  # a link planted in the folder is refused

@@ -29,15 +29,21 @@ def run_add(args: argparse.Namespace) -> int:
     from fleet.catalog.runs import add_runs, scan_run_dirs
     from saved_runs.errors import UserError
 
+    from .progress import progress_display, short
+
     if bool(args.runs) == (args.scan is not None):
         raise UserError("give run directories (guideway catalog add RUN...) or --scan DIR, not both or neither")
-    dirs = scan_run_dirs(args.scan) if args.scan is not None else list(args.runs)
     counts: dict[str, int] = {}
-    with _open(args, create=True) as cat:
-        for outcome in add_runs(cat, dirs):
-            counts[outcome.action] = counts.get(outcome.action, 0) + 1
-            print(outcome.message, file=sys.stderr if outcome.action == "unreadable" else sys.stdout)
-        print(f"catalogue {cat.url}: " + (", ".join(f"{n} {a}" for a, n in sorted(counts.items())) or "no run found"))
+    with progress_display() as stages:
+        if args.scan is not None:
+            stages.stage(f"scanning {short(args.scan)}")
+        dirs = scan_run_dirs(args.scan) if args.scan is not None else list(args.runs)
+        with _open(args, create=True) as cat:
+            for outcome in add_runs(cat, dirs, progress=stages.stage(f"adding {len(dirs)} run(s)")):
+                counts[outcome.action] = counts.get(outcome.action, 0) + 1
+                print(outcome.message, file=sys.stderr if outcome.action == "unreadable" else sys.stdout)
+            print(f"catalogue {cat.url}: " + (", ".join(f"{n} {a}" for a, n in sorted(counts.items()))
+                                              or "no run found"))
     if counts.get("unreadable"):
         raise UserError(f"{counts['unreadable']} run director{'y' if counts['unreadable'] == 1 else 'ies'} could not "
                         "be read (listed above; the others were added): fix or remove them and add again")

@@ -37,14 +37,21 @@ def run(args: argparse.Namespace) -> int:
     from saved_runs.diagnosis.diagnose import diagnose_run, write_model
     from saved_runs.store.reader import load_run
 
-    warn_about_run(load_run(args.run_dir), "diagnosing the")
-    diagnosis = diagnose_run(args.run_dir, args.model, accept_out_of_range=args.accept_out_of_range,
-                             noise_from=earlier_runs(args))
-    written = []
-    if args.report is not None:
-        from saved_runs.diagnosis.report import write_diagnosis_report
+    from .progress import progress_display, short
 
-        written.append(f"report written to {write_diagnosis_report(diagnosis, args.report)}")
+    warn_about_run(load_run(args.run_dir), "diagnosing the")
+    noise_from = earlier_runs(args)
+    written = []
+    with progress_display(json_output=args.json) as stages:
+        what = f"{len(noise_from)} earlier run(s), then each channel" if noise_from else "each channel"
+        steps = stages.stage(f"diagnosing {short(args.run_dir)} ({what})")
+        diagnosis = diagnose_run(args.run_dir, args.model, accept_out_of_range=args.accept_out_of_range,
+                                 noise_from=noise_from, progress=steps)
+        if args.report is not None:
+            from saved_runs.diagnosis.report import write_diagnosis_report
+
+            stages.stage(f"writing {short(args.report)}")
+            written.append(f"report written to {write_diagnosis_report(diagnosis, args.report)}")
     if args.out is not None:
         written.append(f"model written to {write_model(diagnosis, args.out)}")
     if args.json:

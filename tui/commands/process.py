@@ -10,12 +10,21 @@ from typing import Any
 
 
 def run(args: argparse.Namespace) -> int:
-    from saved_runs.evaluation.evaluate import process_run_dir
+    from saved_runs.evaluation.evaluate import evaluate_run
+    from saved_runs.store.reader import load_run
 
-    run_, result = process_run_dir(args.run_dir, **evaluator_options(args))
-    warn_about_run(run_, "processing the")
-    if not args.no_write:
-        result.write(run_.path / "results")
+    from .progress import progress_display, short
+
+    options = evaluator_options(args)
+    with progress_display(json_output=args.json) as stages:  # saved_runs' process_run_dir, in stages
+        stages.stage(f"reading {short(args.run_dir)}")
+        run_ = load_run(args.run_dir)
+        mc = " (Monte Carlo trials)" if run_.kind == "straightness" else ""  # the long part; positioning: none
+        result = evaluate_run(run_, progress=stages.stage(f"evaluating {short(args.run_dir)}{mc}"), **options)
+        warn_about_run(run_, "processing the")
+        if not args.no_write:
+            stages.stage("writing results")
+            result.write(run_.path / "results")
     if args.json:
         json.dump(result.to_dict(), sys.stdout, allow_nan=False)
         sys.stdout.write("\n")

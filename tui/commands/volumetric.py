@@ -85,11 +85,16 @@ def _grid(machine, args: argparse.Namespace, method: str, fixed: dict[str, float
     from saved_runs.volumetric.field import evaluate_field, grid_positions
     from saved_runs.volumetric.outputs import write_field
 
+    from .progress import progress_display, short
+
     _notes(machine)
-    gridded, positions = grid_positions(machine.model, args.grid, fixed)
-    result = evaluate_field(machine, positions, method=method, frame=args.frame, gridded=gridded, count=args.grid)
-    command = shlex.join(["guideway", "volumetric", *sys.argv[2:]]) if sys.argv[1:2] == ["volumetric"] else ""
-    summary = write_field(result, args.out, command=command)
+    with progress_display() as stages:
+        gridded, positions = grid_positions(machine.model, args.grid, fixed)
+        stages.stage(f"evaluating {args.grid ** len(gridded)} poses")
+        result = evaluate_field(machine, positions, method=method, frame=args.frame, gridded=gridded,
+                                count=args.grid)
+        command = shlex.join(["guideway", "volumetric", *sys.argv[2:]]) if sys.argv[1:2] == ["volumetric"] else ""
+        summary = write_field(result, args.out, command=command, progress=stages.stage(f"writing {short(args.out)}"))
     far = summary["max_distance_um"]
     units = {a.name: a.unit for a in machine.model.axes}
     print(f"{summary['grid']['poses']} poses ({args.grid} per axis over {', '.join(gridded)}), {method}, "
@@ -108,8 +113,12 @@ def _grid(machine, args: argparse.Namespace, method: str, fixed: dict[str, float
 def _export(machine, args: argparse.Namespace, method: str, fixed: dict[str, float]) -> int:  # noqa: ANN001
     from saved_runs.volumetric.export import export_model
 
+    from .progress import progress_display
+
     _notes(machine)
-    ex = export_model(machine, args.export, args.out, count=args.grid, fixed=fixed, method=method)
+    with progress_display() as stages:
+        stages.stage(f"building the {args.export} tables")
+        ex = export_model(machine, args.export, args.out, count=args.grid, fixed=fixed, method=method)
     for t, r in zip(ex.tables, ex.residuals, strict=True):
         print(f"{t.axis}: {len(t.position)} points, error {t.error.min():+.3f} … {t.error.max():+.3f} "
               f"{t.error_unit}; along {t.axis} over the grid: max |e| {r.before:.3f} -> {r.after:.3f} {r.unit} "
