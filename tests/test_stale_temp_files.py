@@ -113,3 +113,17 @@ def test_volumetric_killed_mid_write_then_rerun_leaves_no_temp_file(tmp_path: Pa
     res = guideway("volumetric", EXAMPLE, "--out", out, "--grid", "3")
     assert res.returncode == 0, res.stderr
     assert sorted(p.name for p in out.iterdir()) == sorted(GRID_FILES)
+
+
+def test_export_into_a_linked_results_folder_sweeps_nothing_there(tmp_path: Path) -> None:
+    """RUN/results a link to another folder: the export is refused (the writer follows no link inside a run)
+    and the sweep does not reach through the link either: a file of the temporary-name pattern of a dead
+    pid in the link's target stays."""
+    run = tmp_path / "run"
+    write_run(run)
+    elsewhere = tmp_path / "elsewhere"
+    victim = plant(elsewhere, "compensation-linuxcnc.comp", dead_pid())
+    (run / "results").symlink_to(elsewhere, target_is_directory=True)
+    res = guideway("export", run, "--format", "linuxcnc")
+    assert res.returncode == 2
+    assert victim.exists() and victim.read_text() == "half a table\n"
