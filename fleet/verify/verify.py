@@ -37,7 +37,7 @@ from saved_runs.store.compensation import compensation_text, run_compensation
 from saved_runs.store.reader import LoadedRun, load_run
 
 from ..compare.compare import Comparison
-from ..compare.positioning import PositioningComparison, compare_positioning
+from ..compare.positioning import TARGET_TOLERANCE, PositioningComparison, compare_positioning, match_targets
 from ..compare.runs import RunIdentity, check_comparable
 
 # a table does not change the repeatability: R is shown, never flagged
@@ -285,14 +285,17 @@ def _check_runs(found: LoadedRun, left: LoadedRun) -> list[str]:
     return notes
 
 
-def _same_targets(c: PositioningComparison) -> None:
-    only = [t for t in c.targets if t.only_in is not None]
+def _same_targets(ef: PositioningEvaluation, el: PositioningEvaluation) -> None:
+    """Refuse runs whose targets differ (matched as compare matches them)."""
+    unit = ef.result.target_unit
+    ta = ef.result.per_target["target"].to_numpy(dtype=float)
+    tb = el.result.per_target["target"].to_numpy(dtype=float)
+    only = [(t, "AS_FOUND" if j is None else "AS_LEFT") for t, i, j in match_targets(ta, tb, TARGET_TOLERANCE[unit])
+            if i is None or j is None]
     if only:
-        side = {"a": "AS_FOUND", "b": "AS_LEFT"}
-        where = ", ".join(f"{t.target:g}{'+' if t.direction > 0 else '-'} (only {side[str(t.only_in)]})"
-                          for t in only[:4]) + (" ..." if len(only) > 4 else "")
-        raise UserError(f"the runs' targets do not match ({len(only)} target/direction rows in one run only: {where} "
-                        f"{c.target_unit}); verify needs AS_LEFT measured on AS_FOUND's targets (the same set-up)")
+        where = ", ".join(f"{t:g} (only {side})" for t, side in only[:4]) + (" ..." if len(only) > 4 else "")
+        raise UserError(f"the runs' targets do not match ({len(only)} target(s) in one run only: {where} {unit}); "
+                        "verify needs AS_LEFT measured on AS_FOUND's targets (the same set-up)")
 
 
 def verify_runs(found_dir: Path | str, left_dir: Path | str, **options: Any) -> Verification:
@@ -303,8 +306,8 @@ def verify_runs(found_dir: Path | str, left_dir: Path | str, **options: Any) -> 
     record = _left_record(left)
     ef, el = evaluate_run(found, **options), evaluate_run(left, **options)
     assert isinstance(ef, PositioningEvaluation) and isinstance(el, PositioningEvaluation)
+    _same_targets(ef, el)
     detail = compare_positioning(ef, el)
-    _same_targets(detail)
     provenance = find_export(found.path, str(record.get("sha256")), found.meta.get("uid"))
     prediction = predict_as_left(ef, record)
     predicted = PositioningEvaluation(found, prediction.result, prediction.deviations, ef.environment)
