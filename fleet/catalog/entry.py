@@ -12,6 +12,12 @@ Headline values (``values``), each ``{"value_um": v, "u_um": u}`` with ``u`` the
 * positioning: the ISO 230-2 values ``A``, ``A_up``, ``A_down``, ``E``, ``E_up``, ``E_down``, ``M``, ``R``,
   ``R_up``, ``R_down``, ``B`` (a magnitude, the largest |B_i|) and ``B_mean`` (the signed mean reversal, for
   a trend that sees its sign change); their uncertainty is not evaluated: u None.
+
+A positioning run's compensation state (``compensation``): the table active in the controller while it was
+measured, from run.json ``compensation`` — ``{"active": false}`` (none), ``{"active": true, "file", "format",
+"sha256"}``, or ``{"active": null}`` (not recorded: a run from before the record); None for a straightness
+run and for an entry catalogued before the catalogue kept it.  Stored in the ``values_json`` column under
+:data:`COMPENSATION_KEY` (schema unchanged), taken out of ``values`` when read.
 """
 
 from __future__ import annotations
@@ -26,11 +32,13 @@ from typing import Any
 
 from saved_runs.errors import UserError
 from saved_runs.evaluation.tolerance import POSITIONING_QUANTITIES, REFERENCE_LINES
+from saved_runs.store.compensation import run_compensation
 from saved_runs.store.format import FORMAT, run_axis
 
 HASHED_FILES = ("run.json", "points.csv")
 # Headline values with a sign, catalogued for their trend; no [tolerance] key names them (B_um bounds |B_i|).
 SIGNED_QUANTITIES = ("B_mean",)
+COMPENSATION_KEY = "_compensation"  # the compensation state in values_json (runs.py)
 
 
 class RunUnreadable(UserError):
@@ -52,11 +60,23 @@ class Entry:
     values: dict[str, dict[str, float | None]] = field(default_factory=dict)
     verdict: str | None = None
     note: str = ""
+    compensation: dict[str, Any] | None = None  # the run's compensation state (module docstring)
 
     def to_dict(self) -> dict[str, Any]:
         """The object of ``guideway catalog list --json``."""
         return {"uid": self.uid, "path": self.path, "machine": self.machine, "axis": self.axis, "kind": self.kind,
-                "created": self.created, "status": self.status, "values": self.values, "verdict": self.verdict}
+                "created": self.created, "status": self.status, "values": self.values, "verdict": self.verdict,
+                "compensation": self.compensation}
+
+    def compensation_text(self) -> str:
+        """The compensation state in a few words: ``none``, ``x.comp 6c0211989feb``, ``not recorded``, or ``-``
+        (a straightness run, or an entry catalogued before the catalogue kept it)."""
+        c = self.compensation
+        if c is None:
+            return "-"
+        if c.get("active") is None:
+            return "not recorded"
+        return f"{c.get('file')} {str(c.get('sha256'))[:12]}" if c["active"] else "none"
 
 
 @dataclass(frozen=True)
@@ -196,7 +216,18 @@ def make_entry(files: RunFiles) -> Entry:
     values = headline_values(summary, meta) if summary is not None else {}
     verdict = (summary or {}).get("verdict")
     return Entry(uid=files.uid, path=str(files.path), **identity(meta), content_hash=files.content_hash,
-                 values=values, verdict=verdict.get("result") if isinstance(verdict, dict) else None, note=note)
+                 values=values, verdict=verdict.get("result") if isinstance(verdict, dict) else None, note=note,
+                 compensation=compensation_state(meta))
+
+
+def compensation_state(meta: dict[str, Any]) -> dict[str, Any] | None:
+    """What an entry keeps of run.json ``compensation`` (module docstring); None for a straightness run."""
+    if meta.get("kind") != "positioning":
+        return None
+    rec = run_compensation(meta)
+    if not rec.get("active"):
+        return {"active": rec.get("active")}
+    return {"active": True, **{k: rec.get(k) for k in ("file", "format", "sha256")}}
 
 
 def identity(meta: dict[str, Any]) -> dict[str, str]:
