@@ -60,14 +60,16 @@ def render_verification(c: Verification, *, command: str = "") -> str:
     page.heading(f"ISO 230-2 values ({unit}, {d.a.result.edition}, k = {d.k:g})", 3)
     rows = []
     for q, v in c.values.items():
-        rows.append((q, v.found, v.u_found, v.left, v.u_left, v.predicted, v.u_predicted, v.reduction_pct,
+        rows.append((q, v.found, v.u_found, v.left, v.u_left, v.predicted, v.u_predicted, v.expected, v.reduction_pct,
                      v.u_reduction_pct, v.predicted_reduction_pct, {True: "yes", False: "no", None: "—"}[v.agrees],
                      "; ".join(v.flags), QUANTITY_NAMES[q][0]))
-    page.table(("value", "found", "u", "left", "u", "predicted", "u", "reduction %", "u %", "predicted %",
-                "as predicted", "flags", "name"), rows, text_columns=(0, 10, 11, 12))
-    page.paragraph("u = standard uncertainty of each value from its run's repeated approaches (parametric Monte "
-                   "Carlo); reduction = 100·(1 − |left|/|found|); as predicted: |left − predicted| ≤ k·√(u_left² + "
-                   "u_predicted²). Flags: the gain |found| − |left| is smaller than AS_LEFT's repeatability or than "
+    page.table(("value", "found", "u", "left", "u", "predicted", "u", "again", "reduction %", "u %", "predicted %",
+                "as predicted", "flags", "name"), rows, text_columns=(0, 11, 12, 13))
+    page.paragraph("u of found and left = standard uncertainty of each value from its run's repeated approaches "
+                   "(parametric Monte Carlo); u of predicted = the spread of the value a repeat measurement with the "
+                   "table shows (the as-found means' noise carried into the prediction and the repeat's own), "
+                   "again = its mean; reduction = 100·(1 − |left|/|found|); as predicted: |left − again| ≤ "
+                   "k·u_predicted. Flags: the gain |found| − |left| is smaller than AS_LEFT's repeatability or than "
                    f"the drift. {c.drift.text(d.unit)}.", "note")
     page.heading(f"Per target and direction ({unit})", 3)
     trows = []

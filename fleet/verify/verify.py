@@ -131,13 +131,13 @@ class ValueCheck:
 
     @property
     def agrees(self) -> bool | None:
-        """|left − expected| ≤ k·√(u_left² + u_predicted²), ``expected`` the prediction's value as a repeat
-        measurement shows it (a max − min of noisy means is biased upwards, value_uncertainty); None without
-        the u's."""
-        ok = (_finite(self.left) and _finite(self.expected) and _finite(self.u_left) and _finite(self.u_predicted))
-        if not ok:
+        """|left − expected| ≤ k·u_predicted: ``expected`` and ``u_predicted`` are the mean and the spread of the
+        value a repeat measurement with the table shows, the noise of the as-found means carried into the
+        prediction and the repeat's own noise both drawn (value_uncertainty; a max − min of noisy means is
+        biased upwards); None without them."""
+        if not (_finite(self.left) and _finite(self.expected) and _finite(self.u_predicted)):
             return None
-        return abs(self.left - self.expected) <= self.k * math.hypot(self.u_left, self.u_predicted)  # type: ignore[operator, arg-type]
+        return abs(self.left - self.expected) <= self.k * self.u_predicted  # type: ignore[operator]
 
     @property
     def flags(self) -> list[str]:
@@ -250,9 +250,11 @@ class Verification:
                 "edition": d.a.result.edition, "values": {q: v.to_dict() for q, v in self.values.items()},
                 "drift": self.drift.to_dict(), "verdict": self.verdict(),
                 "targets": [self._target(t, p) for t, p in zip(d.targets, self.drift.residual.targets, strict=True)],
-                "uncertainty": "u = standard uncertainty of each value from its run's repeated approaches (parametric "
-                               "Monte Carlo); u of the reduction to first order; agrees = |left - predicted| <= "
-                               f"k * sqrt(u_left^2 + u_predicted^2), k = {d.k:g}",
+                "uncertainty": "u_found, u_left = standard uncertainty of each value from its run's repeated "
+                               "approaches (parametric Monte Carlo); u_predicted, predicted_expected = the spread and "
+                               "mean of the value a repeat measurement with the table shows (the as-found means' "
+                               "noise carried into the prediction and the repeat's own); u of the reduction to first "
+                               f"order; agrees = |left - predicted_expected| <= k * u_predicted, k = {d.k:g}",
                 "notes": list(self.notes)}
 
     def _target(self, t: Any, p: Any) -> dict[str, Any]:
@@ -313,7 +315,7 @@ def verify_runs(found_dir: Path | str, left_dir: Path | str, **options: Any) -> 
     predicted = PositioningEvaluation(found, prediction.result, prediction.deviations, ef.environment)
     drift = Drift(compare_positioning(predicted, el))
     spread = {"found": axis_value_spread(ef.result), "left": axis_value_spread(el.result),
-              "predicted": axis_value_spread(prediction.result)}
+              "predicted": axis_value_spread(prediction.result, means_uncertain=True)}
     u = {k: v.u for k, v in spread.items()}
     values = {}
     for q in AXIS_QUANTITIES:

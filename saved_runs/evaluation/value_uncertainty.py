@@ -35,8 +35,12 @@ class ValueSpread:
     expected: dict[str, float | None]
 
 
-def axis_value_spread(result: Iso2302Result, *, trials: int = TRIALS, seed: int = SEED) -> ValueSpread:
-    """The :class:`ValueSpread` of ``result``'s axis values (their unit)."""
+def axis_value_spread(result: Iso2302Result, *, means_uncertain: bool = False, trials: int = TRIALS,
+                      seed: int = SEED) -> ValueSpread:
+    """The :class:`ValueSpread` of ``result``'s axis values (their unit).  ``means_uncertain``: ``result`` is a
+    prediction whose means carry the noise of the means it was made from (u = s/√n each: the as-found means
+    plus a table's correction); each trial first moves every mean by that much, so the spread is that of a
+    repeat measurement around the prediction, not around the true values."""
     pt = result.per_target
     targets = pt["target"].to_numpy(float)
     rng = np.random.default_rng(seed)
@@ -50,7 +54,9 @@ def axis_value_spread(result: Iso2302Result, *, trials: int = TRIALS, seed: int 
     for _ in range(trials):
         arrays = []
         for (n, mean, s), w in zip(sides, width, strict=True):
-            draw = mean[:, None] + s[:, None] * rng.standard_normal((len(targets), w))
+            centre = mean + s / np.sqrt(np.maximum(n, 1)) * rng.standard_normal(len(targets)) if means_uncertain \
+                else mean
+            draw = centre[:, None] + s[:, None] * rng.standard_normal((len(targets), w))
             draw[np.arange(w)[None, :] >= n[:, None]] = np.nan  # as many approaches as the run had
             arrays.append(draw)
         try:
