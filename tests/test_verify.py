@@ -243,3 +243,32 @@ def test_export_says_how_to_load_the_table(loop: dict[str, Path]) -> None:
     assert f"MD38000 MM_ENC_COMP_MAX_POINTS[0] of axis X1 >= {points}" in steps[0]
     assert any(st.startswith(f"MD32450 BACKLASH = {lost_um / 1000.0:.6f} mm") for st in steps), (steps, lost_um)
     assert steps[-2] == "reference the axis: LEC is active only after referencing"
+
+
+def test_as_left_on_shifted_targets_against_leave_one_target_out(loop: dict[str, Path]) -> None:
+    found, tmp = loop["found"], loop["tmp"]
+    shifted = tmp / "left-shifted"
+    acquire(loop["setup"], shifted, "--shift-targets", "50", "--compensation", loop["table"], "--comp-file-type", "1",
+            seed=6)
+    x_found = stats(found)["x"]
+    setup = json.loads((shifted / "run.json").read_text())["setup"]
+    expected = [t + 50.0 for t in x_found if t + 50.0 <= x_found.max()]
+    assert setup["targets_mm"] == pytest.approx(expected, abs=1e-9) and setup["shift_targets_mm"] == 50.0
+    out = verify_json(found, shifted)
+    pts = pd.read_csv(shifted / "points.csv")
+    r = (pts["reading_mm"] - pts["target_mm"]).to_numpy() * 1000.0
+    between = out["between_points"]
+    assert between["rms"] == pytest.approx(float(np.sqrt(np.mean(r**2))), abs=1e-6)
+    assert between["max"] == pytest.approx(float(np.max(np.abs(r))), abs=1e-6) and between["points"] == len(r)
+    exported = json.loads((tmp / "export.json").read_text())["residuals"]["linear"]["leave_one_target_out"]
+    assert between["leave_one_target_out"]["rms"] == pytest.approx(exported["rms_um"], abs=1e-9)
+    assert between["leave_one_target_out"]["max"] == pytest.approx(exported["max_um"], abs=1e-9)
+    e = out["values"]["E"]
+    assert e["left"] == pytest.approx(iso(stats(shifted))["E"], abs=1e-6) and e["predicted"] is None
+    assert out["drift"] is None and out["targets"] == []
+    res = guideway("verify", found, shifted, "--report", tmp / "shifted.html")
+    assert "error left between the table's points (targets shifted by 50 mm)" in res.stdout
+    assert "leave-one-target-out predicted RMS" in res.stdout
+    # a shift that leaves fewer than 2 targets is refused
+    one_line_error(guideway("acquire", "positioning", "--setup", loop["setup"], "--out", tmp / "r-shift", "--simulate",
+                            "--auto", "--shift-targets", "1000"), "shift_targets_mm = 1000 leaves 0 target(s)")

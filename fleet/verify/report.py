@@ -51,12 +51,21 @@ def render_verification(c: Verification, *, command: str = "") -> str:
                [(label, r.path, r.uid, r.machine, r.axis, r.created, r.status, r.points)
                 for label, r in (("AS_FOUND", c.found), ("AS_LEFT", c.left))], text_columns=(0, 1, 2, 3, 4, 5, 6))
     page.heading("Before and after")
-    page.image(figure_png(positioning_overlay(d)),
-               f"Top: the mean deviation per target, ↑ blue, ↓ red; AS_FOUND (A) dashed with open markers, AS_LEFT (B) "
-               f"solid. Bottom: the change AS_LEFT − AS_FOUND with its expanded uncertainty (k = {d.k:g}).")
-    page.image(figure_png(positioning_overlay(c.drift.residual)),
-               "The prediction (A, dashed: AS_FOUND with the table applied as the controller applies it) against "
-               "AS_LEFT (B, solid); bottom: AS_LEFT − prediction, the change the table does not explain (drift).")
+    if c.drift is None:
+        from .figures import shifted_overlay
+
+        page.image(figure_png(shifted_overlay(d)), "The mean deviation per target, ↑ blue, ↓ red; AS_FOUND at its "
+                   "targets dashed with open markers, AS_LEFT on the shifted targets (between the table's points) "
+                   "solid.")
+        page.paragraph(c.between.text(d.unit, d.target_unit) + ".")  # type: ignore[union-attr]
+    else:
+        page.image(figure_png(positioning_overlay(d)),
+                   f"Top: the mean deviation per target, ↑ blue, ↓ red; AS_FOUND (A) dashed with open markers, "
+                   f"AS_LEFT (B) solid. Bottom: the change AS_LEFT − AS_FOUND with its expanded uncertainty "
+                   f"(k = {d.k:g}).")
+        page.image(figure_png(positioning_overlay(c.drift.residual)),
+                   "The prediction (A, dashed: AS_FOUND with the table applied as the controller applies it) against "
+                   "AS_LEFT (B, solid); bottom: AS_LEFT − prediction, the change the table does not explain (drift).")
     page.heading(f"ISO 230-2 values ({unit}, {d.a.result.edition}, k = {d.k:g})", 3)
     rows = []
     for q, v in c.values.items():
@@ -70,14 +79,15 @@ def render_verification(c: Verification, *, command: str = "") -> str:
                    "table shows (the as-found means' noise carried into the prediction and the repeat's own), "
                    "again = its mean; reduction = 100·(1 − |left|/|found|); as predicted: |left − again| ≤ "
                    "k·u_predicted. Flags: the gain |found| − |left| is smaller than AS_LEFT's repeatability or than "
-                   f"the drift. {c.drift.text(d.unit)}.", "note")
-    page.heading(f"Per target and direction ({unit})", 3)
-    trows = []
-    for t, p in zip(d.targets, c.drift.residual.targets, strict=True):
-        trows.append((t.target, "↑" if t.direction > 0 else "↓", t.a.mean if t.a else None,
-                      t.b.mean if t.b else None, p.a.mean if p.a else None, p.change, p.expanded))
-    page.table((f"target ({UNIT_LABELS.get(d.target_unit, d.target_unit)})", "dir.", "found", "left", "predicted",
-                "left − predicted", f"U, k = {d.k:g}"), trows, text_columns=(1,))
+                   "the drift." + ("" if c.drift is None else f" {c.drift.text(d.unit)}."), "note")
+    if c.drift is not None:
+        page.heading(f"Per target and direction ({unit})", 3)
+        trows = []
+        for t, p in zip(d.targets, c.drift.residual.targets, strict=True):
+            trows.append((t.target, "↑" if t.direction > 0 else "↓", t.a.mean if t.a else None,
+                          t.b.mean if t.b else None, p.a.mean if p.a else None, p.change, p.expanded))
+        page.table((f"target ({UNIT_LABELS.get(d.target_unit, d.target_unit)})", "dir.", "found", "left",
+                    "predicted", "left − predicted", f"U, k = {d.k:g}"), trows, text_columns=(1,))
     notes = (*c.notes, *c.comparison.notes, *d.notes)
     if notes:
         page.heading("Notes", 3)

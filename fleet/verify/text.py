@@ -42,7 +42,23 @@ def value_lines(c: Verification) -> list[str]:
     return lines
 
 
+def shifted_lines(c: Verification, max_rows: int | None = MAX_ROWS) -> list[str]:
+    """AS_LEFT's targets (between the table's points): its mean and s per direction."""
+    pt = c.detail.b.result.per_target
+    lines = [f"AS_LEFT per target and direction ({c.unit}), its targets shifted by "
+             f"{c.between.shift:g} {c.detail.target_unit}:",  # type: ignore[union-attr]
+             f"{'target ' + c.detail.target_unit:>12} {'dir':>3} {'left':>9} {'s':>8}"]
+    for row in pt.itertuples(index=False):
+        for name, sign in (("up", "+"), ("down", "-")):
+            if getattr(row, f"n_{name}") > 0:
+                lines.append(f"{row.target:>12.4f} {sign:>3} {num(getattr(row, f'mean_{name}')):>9} "
+                             f"{num(getattr(row, f's_{name}')):>8}")
+    return lines[: None if max_rows is None else max_rows + 2]
+
+
 def target_lines(c: Verification, max_rows: int | None = MAX_ROWS) -> list[str]:
+    if c.drift is None:
+        return shifted_lines(c, max_rows)
     d, r = c.detail, c.drift.residual
     lines = [f"per target and direction ({c.unit}): found, left, predicted, left - predicted with its U (k = {d.k:g})",
              f"{'target ' + d.target_unit:>12} {'dir':>3} {'found':>9} {'left':>9} {'predicted':>9} {'left-pred':>9} "
@@ -61,15 +77,18 @@ def print_verification(c: Verification, stream: TextIO) -> None:
     print(run_line("AS_FOUND", c.found), file=stream)
     print(run_line("AS_LEFT", c.left), file=stream)
     print(f"table: {c.table.text()}", file=stream)
-    for line in target_lines(c)[:1]:
-        print(line, file=stream)
-    for line in target_lines(c)[1:]:
+    targets = target_lines(c)
+    print(targets[0], file=stream)
+    for line in targets[1:]:
         print(f"  {line}", file=stream)
     lines = value_lines(c)
     print(lines[0], file=stream)
     for line in lines[1:]:
         print(f"  {line}", file=stream)
-    print(c.drift.text(c.unit), file=stream)
+    if c.drift is not None:
+        print(c.drift.text(c.unit), file=stream)
+    if c.between is not None:
+        print(c.between.text(c.unit, c.detail.target_unit), file=stream)
     print(f"verdict: {c.verdict()}", file=stream)
     flagged = c.flagged()
     if flagged:

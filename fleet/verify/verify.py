@@ -199,16 +199,48 @@ class Drift:
 
 
 @dataclass(frozen=True)
+class BetweenPoints:
+    """An as-left run on shifted targets (between the table's points): the error it leaves there against the
+    export's leave-one-target-out residual of the model (exports.json; None when the table has no record).
+    ``rms``, ``max_abs`` over every as-left point (each run, each direction), in the deviation unit."""
+
+    shift: float
+    rms: float
+    max_abs: float
+    points: int
+    loto: dict[str, Any] | None
+
+    def text(self, unit: str, target_unit: str) -> str:
+        head = (f"error left between the table's points (targets shifted by {self.shift:g} {target_unit}): RMS "
+                f"{self.rms:.3f}, max {self.max_abs:.3f} {unit} at {self.points} points")
+        lo = self.loto
+        if lo is None or lo.get("rms") is None:
+            why = "no export record of the table" if lo is None else str(lo.get("unavailable"))
+            return f"{head}; no leave-one-target-out prediction ({why})"
+        return (f"{head}; leave-one-target-out predicted RMS {lo['rms']:.3f}, max {lo['max']:.3f} {unit} "
+                f"({'within' if self.rms <= lo['rms'] else 'MORE than'} predicted)")
+
+    def to_dict(self) -> dict[str, Any]:
+        lo = self.loto or {}
+        return {"shift": self.shift, "rms": self.rms, "max": self.max_abs, "points": self.points,
+                "leave_one_target_out": None if self.loto is None else {k: lo.get(k) for k in
+                                                                        ("rms", "max", "points", "unavailable")},
+                "definition": "the as-left deviations at every point (compensated) against the export's "
+                              "leave-one-target-out residual: the model refitted without each target, scored there"}
+
+
+@dataclass(frozen=True)
 class Verification:
     """The verify of AS_FOUND → table → AS_LEFT: the comparison found → left (compare's, for its table and
     overlay), the table check, the prediction and its comparison with AS_LEFT (the drift), the values."""
 
     comparison: Comparison
     table: TableCheck
-    prediction: Prediction
-    drift: Drift
+    prediction: Prediction | None  # None on shifted targets (no prediction at the as-left targets)
+    drift: Drift | None
     values: dict[str, ValueCheck]
     notes: tuple[str, ...]
+    between: BetweenPoints | None = None  # an as-left run on shifted targets
 
     @property
     def found(self) -> RunIdentity:
@@ -235,6 +267,10 @@ class Verification:
         v = self.values[q]
         if v.reduction_pct is None:
             return f"{q} not evaluable in both runs"
+        if self.between is not None:
+            flags = f"; flagged: {'; '.join(v.flags)}" if v.flags else ""
+            return (f"{q} {v.found:.3f} -> {v.left:.3f} {self.unit} ({v.reduction_pct:.1f} % smaller) between the "
+                    f"table's points{flags}")
         agree = {True: "as predicted (within U)", False: "NOT as predicted (beyond U)", None: "(no U to judge the "
                  "prediction)"}[v.agrees]
         flags = f"; flagged: {'; '.join(v.flags)}" if v.flags else ""
@@ -248,8 +284,10 @@ class Verification:
         return {"found": self.found.to_dict(), "left": self.left.to_dict(), "table": self.table.to_dict(),
                 "unit": d.unit, "target_unit": d.target_unit, "axis_type": d.a.result.axis_type, "k": d.k,
                 "edition": d.a.result.edition, "values": {q: v.to_dict() for q, v in self.values.items()},
-                "drift": self.drift.to_dict(), "verdict": self.verdict(),
-                "targets": [self._target(t, p) for t, p in zip(d.targets, self.drift.residual.targets, strict=True)],
+                "drift": None if self.drift is None else self.drift.to_dict(), "verdict": self.verdict(),
+                "between_points": None if self.between is None else self.between.to_dict(),
+                "targets": [] if self.drift is None else
+                [self._target(t, p) for t, p in zip(d.targets, self.drift.residual.targets, strict=True)],
                 "uncertainty": "u_found, u_left = standard uncertainty of each value from its run's repeated "
                                "approaches (parametric Monte Carlo); u_predicted, predicted_expected = the spread and "
                                "mean of the value a repeat measurement with the table shows (the as-found means' "
@@ -297,7 +335,8 @@ def _same_targets(ef: PositioningEvaluation, el: PositioningEvaluation) -> None:
     if only:
         where = ", ".join(f"{t:g} (only {side})" for t, side in only[:4]) + (" ..." if len(only) > 4 else "")
         raise UserError(f"the runs' targets do not match ({len(only)} target(s) in one run only: {where} {unit}); "
-                        "verify needs AS_LEFT measured on AS_FOUND's targets (the same set-up)")
+                        "verify needs AS_LEFT measured on AS_FOUND's targets (the same set-up), or moved by "
+                        "acquire --shift-targets S to measure between the table's points")
 
 
 def verify_runs(found_dir: Path | str, left_dir: Path | str, **options: Any) -> Verification:
@@ -308,6 +347,9 @@ def verify_runs(found_dir: Path | str, left_dir: Path | str, **options: Any) -> 
     record = _left_record(left)
     ef, el = evaluate_run(found, **options), evaluate_run(left, **options)
     assert isinstance(ef, PositioningEvaluation) and isinstance(el, PositioningEvaluation)
+    shift = target_shift(left.meta)
+    if shift:
+        return _verify_shifted(found, left, ef, el, record, shift, notes)
     _same_targets(ef, el)
     detail = compare_positioning(ef, el)
     provenance = find_export(found.path, str(record.get("sha256")), found.meta.get("uid"))
@@ -330,3 +372,31 @@ def verify_runs(found_dir: Path | str, left_dir: Path | str, **options: Any) -> 
     notes += list(prediction.notes)
     comparison = Comparison("positioning", RunIdentity.of(found, ef), RunIdentity.of(left, el), detail, ())
     return Verification(comparison, TableCheck(record, provenance), prediction, drift, values, tuple(notes))
+
+
+def target_shift(meta: dict[str, Any]) -> float:
+    """run.json ``setup.shift_targets_mm`` (``_deg``): how far the run's targets were moved (0: not)."""
+    setup = meta.get("setup") or {}
+    v = setup.get("shift_targets_deg" if meta.get("axis_type") == "rotary" else "shift_targets_mm", 0.0)
+    return float(v) if isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) else 0.0
+
+
+def _verify_shifted(found: LoadedRun, left: LoadedRun, ef: PositioningEvaluation, el: PositioningEvaluation,
+                    record: dict[str, Any], shift: float, notes: list[str]) -> Verification:
+    """AS_LEFT measured between the table's points: the values of both runs (each over its own targets), and the
+    error left there against the leave-one-target-out residual the export recorded."""
+    import numpy as np
+
+    provenance = find_export(found.path, str(record.get("sha256")), found.meta.get("uid"))
+    dev = el.deviations["deviation"].to_numpy(float)
+    loto = None if provenance is None else provenance.record.get("leave_one_target_out")
+    between = BetweenPoints(shift, float(np.sqrt(np.mean(dev**2))), float(np.max(np.abs(dev))), len(dev), loto)
+    u = {"found": axis_value_spread(ef.result).u, "left": axis_value_spread(el.result).u}
+    values = {q: ValueCheck(q, _num(ef.result.axis[q]), _num(el.result.axis[q]), None, u["found"][q], u["left"][q],
+                            None, ef.result.k, _num(el.result.axis[REPEATABILITY_OF[q]]), None)
+              for q in AXIS_QUANTITIES}
+    notes.append(f"AS_LEFT was measured on AS_FOUND's targets shifted by {shift:g} {ef.result.target_unit} (between "
+                 "the table's points): no prediction per target there; each run's values cover its own targets")
+    detail = PositioningComparison(ef, el, (), ())
+    comparison = Comparison("positioning", RunIdentity.of(found, ef), RunIdentity.of(left, el), detail, ())
+    return Verification(comparison, TableCheck(record, provenance), None, None, values, tuple(notes), between)

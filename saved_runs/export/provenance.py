@@ -39,6 +39,12 @@ def export_record(run_meta: dict[str, Any], path: Path, export: Any, options: An
         rec["comp_file_type"] = options.linuxcnc_type
     if export.scores is not None:
         rec["as_written"] = {k: v for k, v in export.scores.written.items() if k in ("E", "M", "range", "rms")}
+    # what the model leaves between its points (refitted without each target, scored there): an as-left run
+    # on shifted targets is held against it
+    loto = (export.residuals.get(options.model) or {}).get("leave_one_target_out")
+    if loto is not None:
+        rec["leave_one_target_out"] = ({"unavailable": loto.reason} if not hasattr(loto, "rms")
+                                       else {"rms": loto.rms, "max": loto.max_abs, "points": loto.points})
     return rec
 
 
