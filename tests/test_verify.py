@@ -272,3 +272,34 @@ def test_as_left_on_shifted_targets_against_leave_one_target_out(loop: dict[str,
     # a shift that leaves fewer than 2 targets is refused
     one_line_error(guideway("acquire", "positioning", "--setup", loop["setup"], "--out", tmp / "r-shift", "--simulate",
                             "--auto", "--shift-targets", "1000"), "shift_targets_mm = 1000 leaves 0 target(s)")
+
+
+def test_a_second_table_exported_from_an_as_left_run(loop: dict[str, Path]) -> None:
+    # LEFT (measured with t1) -> export (t1 + the measured difference, CARTO) -> AGAIN with t2: the prediction takes
+    # t1's correction out of LEFT's means and puts t2's in
+    left, tmp = loop["left"], loop["tmp"]
+    t2 = tmp / "t2.comp"
+    assert guideway("export", left, "--format", "linuxcnc", "--out", t2).returncode == 0
+    again = tmp / "again"
+    acquire(loop["setup"], again, "--compensation", t2, "--comp-file-type", "1", seed=7)
+    out = verify_json(left, again)
+    assert out["table"]["exported_from_found"] is True
+    assert any("CARTO" in n for n in out["notes"])
+    x = stats(left)["x"]
+    c1 = read_linuxcnc_comp(loop["table"].read_text(encoding="utf-8"), 1)
+    c2 = read_linuxcnc_comp(t2.read_text(encoding="utf-8"), 1)
+    pred = iso(stats(left, {d: c2.correction_um(x, d) - c1.correction_um(x, d) for d in (1, -1)}))
+    for q in ("E", "M", "B", "A"):
+        assert out["values"][q]["predicted"] == pytest.approx(pred[q], abs=2e-3), q
+
+
+def test_an_export_elsewhere_from_an_unprocessed_run_is_recorded(loop: dict[str, Path]) -> None:
+    run = loop["tmp"] / "found-bare"
+    shutil.copytree(loop["found"], run)
+    shutil.rmtree(run / "results")
+    out = loop["tmp"] / "elsewhere" / "x.comp"
+    res = guideway("export", run, "--format", "linuxcnc", "--out", out)
+    assert res.returncode == 0, res.stderr
+    (rec,) = json.loads((run / "results" / "exports.json").read_text())["exports"]
+    assert rec["path"] == str(out.resolve()) and rec["sha256"] == hashlib.sha256(out.read_bytes()).hexdigest()
+    assert rec["leave_one_target_out"]["rms"] > 0

@@ -17,6 +17,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from ..errors import FileWriteError
 from ..store.files import write_json_atomic
 
 EXPORTS_FILE = "exports.json"
@@ -66,9 +67,11 @@ def record_export(run_dir: Path, record: dict[str, Any]) -> str:
             if not (r.get("sha256") == record["sha256"] and r.get("path") == record["path"])]
     rows.append(record)
     try:
+        (run_dir / "results").mkdir(exist_ok=True)  # a table written elsewhere (--out) from a run not processed yet
         write_json_atomic(run_dir / "results" / EXPORTS_FILE, {"exports": rows})
-    except OSError as exc:
-        return (f"the export is not recorded in {run_dir / 'results' / EXPORTS_FILE} ({exc.strerror or exc}): "
+    except (OSError, FileWriteError) as exc:
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        return (f"the export is not recorded in {run_dir / 'results' / EXPORTS_FILE} ({why}): "
                 "guideway verify will find the table only under results/compensation-*")
     return ""
 
