@@ -181,6 +181,8 @@ def test_refusals(loop: dict[str, Path]) -> None:
                    "guideway compare")
     one_line_error(guideway("verify", found, edited(left, tmp / "r-unrecorded", compensation=None)),
                    "does not record which compensation table was active")
+    # both measured with the same table: nothing changed between them
+    one_line_error(guideway("verify", left, left), "measured with the same table active", "nothing was changed")
     # another axis, another machine
     meta = json.loads((left / "run.json").read_text())
     one_line_error(guideway("verify", found, edited(left, tmp / "r-axis", axis="Y",
