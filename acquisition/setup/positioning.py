@@ -136,6 +136,7 @@ class PositioningSetup:
     tolerance: dict[str, float] = field(default_factory=dict)  # [tolerance], saved_runs.evaluation.tolerance
     scenario: str = ""  # [simulation] scenario: the file --simulate takes its effects from ("" = none)
     compensation: CompensationSetup | None = None  # [compensation]: the table active in the controller
+    target_shift: float = 0.0  # [axis] shift_targets_mm (deg): the targets moved by this, between a table's points
 
     def __post_init__(self) -> None:
         if self.axis_type not in AXIS_TYPES:
@@ -215,6 +216,7 @@ class PositioningSetup:
             "environment": self.environment.to_dict(),
             "devices": asdict(self.devices),
             **({"tolerance": dict(self.tolerance)} if self.tolerance else {}),
+            **({f"shift_targets_{u}": self.target_shift} if self.target_shift else {}),
         }
 
     def header(self) -> dict[str, Any]:
@@ -279,6 +281,8 @@ def _positioning_setup(data: dict[str, Any], source: str, nc_checked: bool = Tru
     else:
         targets = linear_targets(start, end, seed=seed)
         long_axis = end - start > LONG_AXIS_MM
+    shift = ax.get(f"shift_targets_{u}", float, 0.0)
+    measured = shifted_targets(targets, shift, f"{source}: [axis] shift_targets_{u}") if shift else targets
     runs = ax.get("runs", int, 1 if long_axis else 5)
     cyc = ax.get("cycle", str, "linear")
     overrun = ax.get(f"overrun_{u}", float, 5.0 if u == "mm" else 2.0)
@@ -336,16 +340,29 @@ def _positioning_setup(data: dict[str, Any], source: str, nc_checked: bool = Tru
     for t in (top, ax, tr, en, ctl, gc, sim, catalog_table(top)):
         t.check_unknown()
     setup = PositioningSetup(
-        axis_name=name, axis_type=axis_type, targets=targets, runs=runs, cycle=cyc, overrun=overrun,
+        axis_name=name, axis_type=axis_type, targets=measured, runs=runs, cycle=cyc, overrun=overrun,
         feed_per_min=feed, datum=datum, trigger=trigger, environment=environment, devices=devices,
         dialect=dialect, program_number=program_number,
         max_deviation=max_dev, simulation=simulation, long_axis=long_axis, tolerance=tolerance,
-        scenario=scenario, compensation=compensation, **text,
+        scenario=scenario, compensation=compensation, target_shift=shift, **text,
     )
     if explicit is not None:  # generated targets follow the rule by construction
         span = end - start if end is not None and axis_type == "linear" else None
         check_targets(targets, axis_type, span, allow_nonconforming=allow_nonconforming)
     return setup
+
+
+def shifted_targets(targets: tuple[float, ...], shift: float, what: str) -> tuple[float, ...]:
+    """The targets moved by ``shift`` (mm or deg), those that stay within the first … last target: an as-left run
+    that measures between the points of a table made on ``targets`` (docs/compensation.md, "Shifted targets")."""
+    if not math.isfinite(shift):
+        raise SetupError(f"{what} must be a number, got {shift!r}")
+    lo, hi = min(targets), max(targets)
+    out = tuple(round(t + shift, 9) for t in targets if lo <= t + shift <= hi)  # no float fuzz in run.json
+    if len(out) < 2:
+        raise SetupError(f"{what} = {shift:g} leaves {len(out)} target(s) within {lo:g} … {hi:g}; shift by less than "
+                         "the span (half the target spacing measures midway between the table's points)")
+    return out
 
 
 def load_positioning_setup(path: Path | str) -> PositioningSetup:

@@ -17,6 +17,12 @@ The verdict is the evaluation's, however the run was evaluated; the evaluation o
 (``options``: ``method``, ``mc_trials`` of a straightness run, ``k``, ``edition`` of a positioning run,
 ``accept_out_of_range``) are kept with the defaults of ``guideway process`` (``option_defaults``), so that a
 run processed with other options (a 20-trial first-order evaluation) is told from one evaluated as usual.
+
+A positioning run's compensation state (``compensation``): the table active in the controller while it was
+measured, from run.json ``compensation`` — ``{"active": false}`` (none), ``{"active": true, "file", "format",
+"sha256"}``, or ``{"active": null}`` (not recorded: a run from before the record); None for a straightness
+run and for an entry catalogued before the catalogue kept it.  Stored in the ``values_json`` column under
+:data:`COMPENSATION_KEY` (schema unchanged), taken out of ``values`` when read.
 """
 
 from __future__ import annotations
@@ -32,11 +38,13 @@ from typing import Any
 
 from saved_runs.errors import UserError
 from saved_runs.evaluation.tolerance import POSITIONING_QUANTITIES, REFERENCE_LINES
+from saved_runs.store.compensation import run_compensation
 from saved_runs.store.format import FORMAT, run_axis
 
 HASHED_FILES = ("run.json", "points.csv")
 # Headline values with a sign, catalogued for their trend; no [tolerance] key names them (B_um bounds |B_i|).
 SIGNED_QUANTITIES = ("B_mean",)
+COMPENSATION_KEY = "_compensation"  # the compensation state in values_json (runs.py)
 
 
 class RunUnreadable(UserError):
@@ -60,6 +68,7 @@ class Entry:
     note: str = ""
     options: dict[str, Any] | None = None  # the evaluation options of ``values`` (None: not known, schema 1)
     option_defaults: dict[str, Any] = field(default_factory=dict)  # those of guideway process for this run
+    compensation: dict[str, Any] | None = None  # the run's compensation state (module docstring)
 
     def non_default_options(self) -> dict[str, Any]:
         """The options of the evaluation that differ from process' defaults (name -> value used; one the
@@ -72,7 +81,18 @@ class Entry:
         return {"uid": self.uid, "path": self.path, "machine": self.machine, "axis": self.axis, "kind": self.kind,
                 "created": self.created, "status": self.status, "values": self.values, "verdict": self.verdict,
                 "options": self.options, "option_defaults": self.option_defaults,
-                "non_default_options": self.non_default_options()}
+                "non_default_options": self.non_default_options(),
+                "compensation": self.compensation}
+
+    def compensation_text(self) -> str:
+        """The compensation state in a few words: ``none``, ``x.comp 6c0211989feb``, ``not recorded``, or ``-``
+        (a straightness run, or an entry catalogued before the catalogue kept it)."""
+        c = self.compensation
+        if c is None:
+            return "-"
+        if c.get("active") is None:
+            return "not recorded"
+        return f"{c.get('file')} {str(c.get('sha256'))[:12]}" if c["active"] else "none"
 
 
 @dataclass(frozen=True)
@@ -246,7 +266,18 @@ def make_entry(files: RunFiles) -> Entry:
     options, defaults = evaluation_options(summary, files.points) if summary is not None else ({}, {})
     return Entry(uid=files.uid, path=str(files.path), **identity(meta), content_hash=files.content_hash,
                  values=values, verdict=verdict.get("result") if isinstance(verdict, dict) else None, note=note,
-                 options=options, option_defaults=defaults)
+                 options=options, option_defaults=defaults,
+                 compensation=compensation_state(meta))
+
+
+def compensation_state(meta: dict[str, Any]) -> dict[str, Any] | None:
+    """What an entry keeps of run.json ``compensation`` (module docstring); None for a straightness run."""
+    if meta.get("kind") != "positioning":
+        return None
+    rec = run_compensation(meta)
+    if not rec.get("active"):
+        return {"active": rec.get("active")}
+    return {"active": True, **{k: rec.get(k) for k in ("file", "format", "sha256")}}
 
 
 def identity(meta: dict[str, Any]) -> dict[str, str]:

@@ -20,7 +20,7 @@ import sqlalchemy as sa
 from saved_runs.errors import UserError
 
 from .database import Catalog, runs_table
-from .entry import Entry, RunFiles, RunUnreadable, identity, make_entry, read_run_files
+from .entry import COMPENSATION_KEY, Entry, RunFiles, RunUnreadable, identity, make_entry, read_run_files
 
 BATCH = 200  # rows written per transaction while scanning
 
@@ -61,8 +61,14 @@ def _now() -> str:
 def _row(entry: Entry) -> dict[str, Any]:
     options = json.dumps({"options": entry.options or {}, "defaults": entry.option_defaults}, allow_nan=False)
     return {"uid": entry.uid, "path": entry.path, "machine": entry.machine, "axis": entry.axis, "kind": entry.kind,
-            "created": entry.created, "status": entry.status, "values_json": json.dumps(entry.values, allow_nan=False),
+            "created": entry.created, "status": entry.status, "values_json": _values_json(entry),
             "verdict": entry.verdict, "content_hash": entry.content_hash, "added": _now(), "options_json": options}
+
+
+def _values_json(entry: Entry) -> str:
+    """The headline values, and the compensation state under COMPENSATION_KEY (entry.py)."""
+    values = entry.values if entry.compensation is None else {**entry.values, COMPENSATION_KEY: entry.compensation}
+    return json.dumps(values, allow_nan=False)
 
 
 def _upsert(cat: Catalog, rows: list[dict[str, Any]]) -> tuple[set[str], set[str]]:
@@ -233,10 +239,13 @@ def _written(cat: Catalog, rows: list[dict[str, Any]], told: list[AddOutcome]) -
 
 
 def _entry(row: Any) -> Entry:
+    values = json.loads(row.values_json)
+    compensation = values.pop(COMPENSATION_KEY, None)
     options = json.loads(row.options_json) if row.options_json else {}  # none in the rows of schema 1
     return Entry(uid=row.uid, path=row.path, machine=row.machine, axis=row.axis, kind=row.kind, created=row.created,
-                 status=row.status, content_hash=row.content_hash, values=json.loads(row.values_json),
-                 verdict=row.verdict, options=options.get("options"), option_defaults=options.get("defaults") or {})
+                 status=row.status, content_hash=row.content_hash, values=values,
+                 verdict=row.verdict, options=options.get("options"), option_defaults=options.get("defaults") or {},
+                 compensation=compensation)
 
 
 def since_text(date: str) -> str:

@@ -231,4 +231,10 @@ def write_export(run_dir: Path | str, options: ExportOptions, out: Path | None =
         write_text_atomic(path, export.text, make_parents=True)
     except FileWriteError as exc:
         raise UserError(f"cannot write the table to {path}: {exc.reason}{what_to_do(exc.errno)}") from None
+    # the source run remembers the table (a LinuxCNC file cannot carry a comment): guideway verify reads it
+    from .provenance import export_record, record_export
+
+    note = record_export(run.path, export_record(run.meta, path, export, options))
+    if note:
+        export.notes.append(note)
     return run, export, path

@@ -61,12 +61,26 @@ def active_table(meta: dict[str, Any], options: ExportOptions, axis: str) -> tup
         raise UserError(f"the active table is LinuxCNC COMP_FILE_TYPE {rec.get('comp_file_type')}; export with "
                         f"--linuxcnc-type {rec.get('comp_file_type')} (a file of the other type needs the INI changed "
                         "too)")
+    table = load_recorded_table(rec, meta, "the table active during the run")
+    _same_axis_and_units(table, options, axis, fmt)
+    note = (f"the run was measured with {what} active: this table is that table plus the measured difference "
+            "(CARTO's rule) and replaces it; the residuals are those of this table in its place")
+    return ActiveTable(rec, table), note
+
+
+def load_recorded_table(rec: dict[str, Any], meta: dict[str, Any], what: str, why: str = "the new table is the old one "
+                        "plus the measured difference") -> ControllerTable:
+    """The table file a run.json ``compensation`` record names (``rec`` active), read as its controller read it
+    during the run (the record's COMP_FILE_TYPE, reference position, detection unit, backlash).  One-line
+    :class:`UserError` when the file is missing, changed (its SHA-256 differs from the record) or unreadable;
+    ``what`` names the table in those lines, ``why`` says what needs it."""
+    fmt = rec.get("format")
     path = Path(str(rec.get("path", "")))
     try:
         data = path.read_bytes()
     except OSError as exc:
-        raise UserError(f"the table active during the run, {path}, cannot be read ({exc.strerror or exc}); the new "
-                        "table is the old one plus the measured difference: restore the file") from None
+        raise UserError(f"{what}, {path}, cannot be read ({exc.strerror or exc}); {why}: restore "
+                        "the file") from None
     if hashlib.sha256(data).hexdigest() != rec.get("sha256"):
         raise UserError(f"{path} is not the table that was active during the run (its SHA-256 differs from run.json "
                         f"{str(rec.get('sha256'))[:12]}…); restore that file")
@@ -74,17 +88,13 @@ def active_table(meta: dict[str, Any], options: ExportOptions, axis: str) -> tup
     err = "arcsec" if unit == "deg" else "um"
     scale = 1.0 / 3600.0 if err == "arcsec" else 1e-3
     try:
-        table = load_controller_table(
-            data.decode("utf-8"), fmt, comp_file_type=rec.get("comp_file_type"),
+        return load_controller_table(
+            data.decode("utf-8"), str(fmt), comp_file_type=rec.get("comp_file_type"),
             reference_position=rec.get(f"reference_position_{unit}"), detection_unit_um=rec.get("detection_unit_um"),
             reference_direction=int(rec.get("reference_direction", 1)),
             backlash=None if rec.get(f"backlash_{err}") is None else float(rec[f"backlash_{err}"]) * scale)
     except (ValueError, UnicodeDecodeError) as exc:
-        raise UserError(f"the active table {path} cannot be read as a {fmt} table: {exc}") from None
-    _same_axis_and_units(table, options, axis, fmt)
-    note = (f"the run was measured with {what} active: this table is that table plus the measured difference "
-            "(CARTO's rule) and replaces it; the residuals are those of this table in its place")
-    return ActiveTable(rec, table), note
+        raise UserError(f"{what} {path} cannot be read as a {fmt} table: {exc}") from None
 
 
 def _same_axis_and_units(table: ControllerTable, options: ExportOptions, axis: str, fmt: str) -> None:

@@ -32,7 +32,8 @@ def test_add_list_and_add_again(catalog_url: str, tmp_path: Path) -> None:
     assert [r["path"] for r in runs] == [str(pos.resolve()), str(run.resolve())]  # newest first
     s = runs[1]
     assert set(s) == {"uid", "path", "machine", "axis", "kind", "created", "status", "values", "verdict", "options",
-                      "option_defaults", "non_default_options"}
+                      "option_defaults", "non_default_options",
+                      "compensation"}
     assert s["uid"] == json.loads((run / "run.json").read_text())["uid"]
     assert (s["machine"], s["axis"], s["kind"], s["created"], s["status"]) == (
         "mill-1", "X", "straightness", "2026-03-01T10:00:00Z", "complete")

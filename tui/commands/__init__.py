@@ -28,6 +28,7 @@ COMMAND_MODULES = (
     "simulate",
     "diagnose",
     "compare",
+    "verify",
     "catalog",
     "trend",
     "tui",

@@ -2,7 +2,7 @@
 
     guideway acquire straightness --setup SETUP.toml --out RUN_DIR [--simulate] [--auto]
     guideway acquire positioning --setup SETUP.toml --out RUN_DIR [--simulate] [--auto]
-        [--compensation FILE [--compensation-format F] [--comp-file-type 0|1]]
+        [--compensation FILE [--compensation-format F] [--comp-file-type 0|1]] [--shift-targets S]
     guideway acquire [KIND] --resume RUN_DIR [--simulate] [--auto]     (or: KIND --out RUN_DIR --resume)
 
 The plain-terminal operator asks on stdin/stdout (Enter = capture) unless
@@ -56,6 +56,8 @@ def run(args: argparse.Namespace) -> int:
     source = read_toml(args.setup) if args.setup is not None else None
     if compensation:
         source = _with_compensation(args, source)
+    if args.shift_targets is not None:
+        source = _with_shift(args, source, resume)
     res = acquire(args.kind, source, str(args.setup), args.out, simulate=sim, auto=args.auto, resume=resume,
                   stream=sys.stdout, stdin=sys.stdin)  # this call's streams, not import time's
     status = res.outcome.exit_status
@@ -68,6 +70,20 @@ def run(args: argparse.Namespace) -> int:
         return 1
     print(f"process it with: guideway process {args.out}")
     return 0
+
+
+def _with_shift(args: argparse.Namespace, source: dict | None, resume: bool) -> dict:
+    """The set-up with ``[axis] shift_targets_mm`` (``_deg``) = ``--shift-targets`` (docs/compensation.md)."""
+    from saved_runs.errors import SetupError
+
+    if resume or source is None:
+        raise SetupError("--shift-targets applies to a new run with --setup; a resumed run keeps its targets")
+    if args.kind != "positioning":
+        raise SetupError("--shift-targets is for positioning runs")
+    axis = dict(source.get("axis") or {})
+    unit = "deg" if axis.get("type") == "rotary" else "mm"
+    axis[f"shift_targets_{unit}"] = args.shift_targets
+    return {**source, "axis": axis}
 
 
 def _with_compensation(args: argparse.Namespace, source: dict | None) -> dict:
@@ -109,6 +125,10 @@ def register(sub) -> None:  # noqa: ANN001
     a.add_argument("--scenario", type=Path, default=None, metavar="FILE",
                    help="--simulate: scenario file whose effects the simulated devices apply (docs/diagnosis.md; "
                         "default: the set-up's [simulation] scenario)")
+    a.add_argument("--shift-targets", type=float, default=None, metavar="S",
+                   help="positioning: measure at the set-up's targets moved by S mm (deg), those within the first … "
+                        "last target: an as-left run between a table's points (guideway verify compares it with the "
+                        "leave-one-target-out prediction)")
     a.add_argument("--compensation", type=Path, default=None, metavar="FILE",
                    help="positioning: the compensation table active in the controller (recorded in run.json; with "
                         "--simulate the simulated controller applies it as that controller does); replaces the "

@@ -104,7 +104,7 @@ def run_list(args: argparse.Namespace) -> int:
             return 0
         for e in map(printable_entry, entries):
             print(f"{e.created:<20} {e.machine or '-':<14} {e.axis or '-':<6} {e.kind:<12} {e.status:<11} "
-                  f"{e.verdict or '-':<6} {headline(e.values):<28} {e.path}")
+                  f"{e.verdict or '-':<6} {headline(e.values):<28} {e.compensation_text():<25} {e.path}")
             if e.uid in future:
                 print(f"  ^ dated in the future (created {e.created}): check the rig's clock; left out of trends")
             if options_line(e):

@@ -42,13 +42,23 @@ def run(args: argparse.Namespace) -> int:
         step = "" if export.grid_step is None else f", step {round(export.grid_step, 9):.12g} {export.position_unit}"
         print(f"{args.format} table ({len(export.table)} points, {first:g} … {last:g} {export.position_unit}{step}, "
               f"model {args.model}) written to {out}", file=info)
+    from saved_runs.export.load import export_load_instructions
+
+    axis = args.axis or str((run_.meta.get("setup") or {}).get("axis_name") or run_.meta.get("axis") or "X")
+    load = export_load_instructions(export, out, options, axis)
     if args.json:
-        json.dump({**export.to_dict(), "out": None if out is None else str(out)}, sys.stdout, allow_nan=False)
+        json.dump({**export.to_dict(), "out": None if out is None else str(out), "load": load}, sys.stdout,
+                  allow_nan=False)
         sys.stdout.write("\n")
         return 0
     for note in export.notes:
         print(note, file=info)
     print(export.residual_text(), file=info)
+    print("load it (the tool writes nothing into the controller):", file=info)
+    from saved_runs.export.load import numbered
+
+    for line in numbered(load):
+        print(f"  {line}", file=info)
     return 0
 
 
