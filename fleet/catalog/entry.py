@@ -60,6 +60,7 @@ class Entry:
     note: str = ""
     options: dict[str, Any] | None = None  # the evaluation options of ``values`` (None: not known, schema 1)
     option_defaults: dict[str, Any] = field(default_factory=dict)  # those of guideway process for this run
+    facts: dict[str, Any] | None = None  # run_facts() of run.json (None: not known, an entry of schema 1 or 2)
 
     def non_default_options(self) -> dict[str, Any]:
         """The options of the evaluation that differ from process' defaults (name -> value used; one the
@@ -236,6 +237,43 @@ def evaluation_options(summary: dict[str, Any], points: int) -> tuple[dict[str, 
     return {}, {}
 
 
+INSTRUMENT_KEYS = ("role", "model", "serial", "certificate", "calibrated", "due")
+
+
+def instrument_records(meta: dict[str, Any]) -> list[dict[str, str]]:
+    """The calibration records of the instruments of a run: run.json ``instruments`` as a list of
+    ``[[instrument]]`` tables (keys ``role, model, serial, certificate, calibrated, due``), or as an object
+    whose members are such records (``instruments.sensor`` ...: only those that carry a ``due`` date);
+    a run without them gives []."""
+    raw = meta.get("instruments")
+    if isinstance(raw, dict):
+        items = [{"role": k, **v} for k, v in raw.items() if isinstance(v, dict) and v.get("due")]
+    elif isinstance(raw, list):
+        items = [v for v in raw if isinstance(v, dict)]
+    else:
+        items = []
+    return [{k: str(v[k]) for k in INSTRUMENT_KEYS if v.get(k) not in (None, "")} for v in items]
+
+
+def run_facts(meta: dict[str, Any], summary: dict[str, Any] | None = None) -> dict[str, Any]:
+    """What the fleet overview shows of a run besides its values: ``operator``, the controller
+    ``compensation`` state (``{"active": true, "file", "sha256"}``, ``{"active": false}``, or
+    ``{"active": null}``: not recorded), the ``instruments`` calibration records and the ``decision_rule``
+    of the verdict as the evaluation names it (None: not named)."""
+    from saved_runs.store.compensation import run_compensation
+
+    comp = run_compensation(meta)
+    state: dict[str, Any] = {"active": comp.get("active") if comp.get("recorded") else None}
+    if state["active"]:
+        state.update({"file": str(comp.get("file") or ""), "sha256": str(comp.get("sha256") or "")})
+    verdict = (summary or {}).get("verdict")
+    rule = None
+    if isinstance(verdict, dict):
+        rule = verdict.get("decision_rule") or verdict.get("rule")
+    return {"operator": str(meta.get("operator") or ""), "compensation": state,
+            "instruments": instrument_records(meta), "decision_rule": None if rule is None else str(rule)}
+
+
 def make_entry(files: RunFiles) -> Entry:
     """The catalogue entry of a run read by :func:`read_run_files` (evaluating it if its results are missing
     or stale)."""
@@ -246,7 +284,7 @@ def make_entry(files: RunFiles) -> Entry:
     options, defaults = evaluation_options(summary, files.points) if summary is not None else ({}, {})
     return Entry(uid=files.uid, path=str(files.path), **identity(meta), content_hash=files.content_hash,
                  values=values, verdict=verdict.get("result") if isinstance(verdict, dict) else None, note=note,
-                 options=options, option_defaults=defaults)
+                 options=options, option_defaults=defaults, facts=run_facts(meta, summary))
 
 
 def identity(meta: dict[str, Any]) -> dict[str, str]:

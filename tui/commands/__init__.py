@@ -30,6 +30,7 @@ COMMAND_MODULES = (
     "compare",
     "catalog",
     "trend",
+    "fleet",
     "tui",
 )
 
