@@ -293,6 +293,8 @@ def build_overview(entries: Iterable[Entry], tolerances: Iterable[Tolerance], in
         all_runs.append((when, e))
         if e.status == "complete":
             groups[(e.machine, e.axis)].append((when, e))
+        else:  # an aborted run's values cover only the points it had
+            left_out.append(f"{e.uid} ({e.status or 'no status'})")
     tol: dict[tuple[str, str], dict[str, float]] = {}
     for t in tolerances:
         tol.setdefault((t.machine, t.axis), {})[t.value] = t.limit_um
