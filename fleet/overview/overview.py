@@ -23,7 +23,6 @@ from fleet.catalog.browse import DEFAULT_TREND_VALUE
 from fleet.catalog.clock import future_cutoff
 from fleet.catalog.database import Catalog, runs_table
 from fleet.catalog.entry import Entry, run_facts
-from fleet.catalog.runs import entry_of_row
 from fleet.catalog.settings import Interval, Tolerance, list_intervals, list_tolerances
 from fleet.trend.fit import SIGNED_VALUES, Step, Trend, TrendPoint, fit_trend, parse_date
 
@@ -254,14 +253,35 @@ def _unit(v: dict[str, Any]) -> str:
     return "arcsec" if "value_arcsec" in v else "um"
 
 
-def read_entries(cat: Catalog, machine: str | None = None) -> list[Entry]:
-    """Every entry (of ``machine``), by machine, axis and time: one query."""
+class CatalogRun:
+    """An entry as the overview reads it: the columns it needs, the values parsed, the facts parsed when asked
+    for (only the latest runs' facts are read: parsing 10,000 of them would cost the overview its second)."""
+
+    __slots__ = ("uid", "path", "machine", "axis", "kind", "created", "status", "verdict", "values", "_facts_json",
+                 "_facts")
+
+    def __init__(self, row: Any) -> None:
+        self.uid, self.path, self.machine, self.axis, self.kind, self.created, self.status, self.verdict = row[:8]
+        self.values: dict[str, dict[str, Any]] = json.loads(row[8])
+        self._facts_json: str | None = row[9]
+        self._facts: dict[str, Any] | None = None
+
+    @property
+    def facts(self) -> dict[str, Any] | None:
+        if self._facts is None and self._facts_json:
+            self._facts = json.loads(self._facts_json)
+        return self._facts
+
+
+def read_entries(cat: Catalog, machine: str | None = None) -> list[CatalogRun]:
+    """Every entry (of ``machine``), by machine, axis and time: one query, of the columns the overview needs."""
     t = runs_table
-    q = sa.select(t).order_by(t.c.machine, t.c.axis, t.c.created, t.c.uid)
+    q = sa.select(t.c.uid, t.c.path, t.c.machine, t.c.axis, t.c.kind, t.c.created, t.c.status, t.c.verdict,
+                  t.c.values_json, t.c.facts_json).order_by(t.c.machine, t.c.axis, t.c.created, t.c.uid)
     if machine is not None:
         q = q.where(t.c.machine == machine)
     with cat.engine.connect() as conn:
-        return [entry_of_row(r) for r in conn.execute(q)]
+        return [CatalogRun(r) for r in conn.execute(q)]
 
 
 def fleet_overview(cat: Catalog, machine: str | None = None, now: datetime | None = None) -> Overview:
@@ -374,16 +394,23 @@ def _kind_has(runs: list[tuple[datetime, Entry]], kind: str, value: str) -> bool
 
 def _instruments(runs: list[tuple[datetime, Entry]]) -> list[InstrumentDue]:
     """Each instrument (by model and serial, else role, model and certificate) as the newest run that records
-    it states its calibration; an unreadable due date first, then the soonest due, those without one last."""
+    it states its calibration, among the latest run of each machine axis and kind (the instruments in use: an
+    instrument only older runs of an axis record has been replaced on it); an unreadable due date first, then
+    the soonest due, those without one last."""
+    latest: dict[tuple[str, str, str], tuple[datetime, Entry]] = {}
+    for when, e in runs:
+        key = (e.machine, e.axis, e.kind)
+        if key not in latest or (when, e.uid) > (latest[key][0], latest[key][1].uid):
+            latest[key] = (when, e)
     newest: dict[tuple[str, ...], InstrumentDue] = {}
-    for _, e in sorted(runs, key=lambda we: (we[0], we[1].uid)):
-        facts = e.facts  # the stored facts only: reading every older run.json from disk would cost the overview
-        for rec in (facts or {}).get("instruments") or []:
+    for _, e in sorted(latest.values(), key=lambda we: (we[0], we[1].uid)):
+        facts = _facts(e)
+        for rec in facts.get("instruments") or []:
             key = (rec.get("model", ""), rec.get("serial", "")) if rec.get("serial") else \
                 (rec.get("role", ""), rec.get("model", ""), rec.get("certificate", ""))
-            newest[key] = InstrumentDue(rec, RunRef(e.uid, e.path, e.created, str((facts or {}).get("operator") or
-                                                                                 "")), e.machine,
-                                        _due_date(rec["due"]) if rec.get("due") else None)
+            newest[key] = InstrumentDue(rec, RunRef(e.uid, e.path, e.created, str(facts.get("operator") or "")),
+                                        e.machine, _due_date(rec["due"]) if rec.get("due") else None)
+
     def order(i: InstrumentDue) -> tuple[int, date, str]:
         return (1, i.due, i.label) if i.due is not None else (0 if i.record.get("due") else 2, date.min, i.label)
 
