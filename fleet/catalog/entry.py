@@ -241,11 +241,14 @@ INSTRUMENT_KEYS = ("role", "model", "serial", "certificate", "calibrated", "due"
 
 
 def instrument_records(meta: dict[str, Any]) -> list[dict[str, str]]:
-    """The calibration records of the instruments of a run: run.json ``instruments`` as a list of
-    ``[[instrument]]`` tables (keys ``role, model, serial, certificate, calibrated, due``), or as an object
-    whose members are such records (``instruments.sensor`` ...: only those that carry a ``due`` date);
-    a run without them gives []."""
-    raw = meta.get("instruments")
+    """The calibration records of the instruments of a run, each with the keys ``role, model, serial,
+    certificate, calibrated, due`` (those it has): run.json ``setup.instruments``, the list the set-up's
+    ``[[instrument]]`` tables are recorded as; else a top-level ``instruments`` list of such records, or an
+    ``instruments`` object whose members carry a ``due`` date (the devices' identities, which carry none, are
+    no calibration records).  A run without them gives []."""
+    raw = (meta.get("setup") or {}).get("instruments") if isinstance(meta.get("setup"), dict) else None
+    if not isinstance(raw, list):
+        raw = meta.get("instruments")
     if isinstance(raw, dict):
         items = [{"role": k, **v} for k, v in raw.items() if isinstance(v, dict) and v.get("due")]
     elif isinstance(raw, list):

@@ -269,7 +269,7 @@ def recent_catalogue(url: str, tmp_path: Path, slope_um_per_year: float = 0.5) -
         meta["operator"] = f"tech {i}"
         if i == 8:
             meta["compensation"] = {"active": True, "file": "x.comp", "sha256": "ab" * 32, "format": "linuxcnc"}
-            meta["instruments"] = [
+            meta["setup"]["instruments"] = [
                 {"role": "interferometer", "model": "XL-80", "serial": "S1", "certificate": "C-1",
                  "calibrated": iso(now - timedelta(days=345))[:10], "due": iso(now + timedelta(days=20))[:10]},
                 {"role": "sensor", "model": "ILD1420", "serial": "S2", "certificate": "C-2",
@@ -394,3 +394,36 @@ def test_schema_2_is_migrated_to_3_and_entries_without_facts_read_run_json(tmp_p
     engine.dispose()
     assert guideway("catalog", "tolerance", "--machine", "mill-1", "--axis", "X", "--value", "minimum_zone",
                     "--limit", "3", "--catalog", url).returncode == 0
+
+
+def test_instrument_records_are_read_from_setup_instruments_and_tolerated_when_absent() -> None:
+    from fleet.catalog.entry import instrument_records
+
+    rec = {"role": "interferometer", "model": "XL-80", "serial": "1", "certificate": "C", "calibrated": "2026-01-02",
+           "due": "2027-01-02"}
+    assert instrument_records({"setup": {"instruments": [rec]}}) == [rec]
+    assert instrument_records({"instruments": [rec]}) == [rec]
+    # the devices' identities (no due date) are no calibration records; a member with one is
+    assert instrument_records({"instruments": {"sensor": {"protocol": "x", "model": "ILD"}}}) == []
+    assert instrument_records({"instruments": {"sensor": {"model": "ILD", "due": "2027-01-01"}}}) == [
+        {"role": "sensor", "model": "ILD", "due": "2027-01-01"}]
+    assert instrument_records({}) == [] and instrument_records({"setup": {"instruments": "x"}}) == []
+
+
+def test_the_verdict_and_decision_rule_the_entry_carries(tmp_path: Path) -> None:
+    url = f"sqlite:///{tmp_path / 'c.sqlite'}"
+    now = datetime.now(UTC)
+    for i, (axis, rule, result) in enumerate((("X", "guard-band", "fail"), ("Y", None, "pass"))):
+        summary = straightness_summary(4.0, 0.1)
+        summary["verdict"] = {"result": result, "checks": [], **({"decision_rule": rule} if rule else {})}
+        write_run(tmp_path / "runs", f"r{i}", axis=axis, created=iso(now - timedelta(days=3)), summary=summary,
+                  tolerance={"straightness_um": 5.0, "reference_line": "minimum_zone"})
+    assert guideway("catalog", "add", "--scan", tmp_path / "runs", "--catalog", url).returncode == 0
+    rows = {r["axis"]: r for r in json.loads(guideway("fleet", "--json", "--catalog", url).stdout)["rows"]}
+    assert (rows["X"]["verdict"], rows["X"]["decision_rule"]) == ("fail", "guard-band")
+    assert (rows["Y"]["verdict"], rows["Y"]["decision_rule"]) == ("pass", "as evaluated")
+    assert not rows["X"]["beyond_limit"]  # 4.0 within 5.0: the verdict is the evaluation's, under its rule
+    res = guideway("fleet", "check", "--within", "0", "--catalog", url)
+    assert res.returncode == 1 and res.stdout.splitlines() == [
+        "FAIL     mill-1 X minimum_zone: the latest run r0 "
+        f"({iso(now - timedelta(days=3))[:10]}) failed its tolerance (decision rule guard-band)"], res.stdout
