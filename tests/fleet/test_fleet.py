@@ -172,8 +172,13 @@ def test_fleet_order_and_crossing_dates_against_numpy(catalog_url: str) -> None:
     axes = build_fleet()
     assert len({a.machine for a in axes}) >= 50 and sum(len(a.runs) for a in axes) > 2000
     write_fleet(catalog_url, axes)
+    import sqlalchemy as sa
+
+    statements: list[str] = []
     with open_catalog(catalog_url, create=False) as cat:
+        sa.event.listen(cat.engine, "before_cursor_execute", lambda c, cur, stmt, *a: statements.append(stmt))
         ov = fleet_overview(cat, now=NOW)
+    assert sum("FROM guideway_runs" in s for s in statements) == 1, statements  # one query for all entries
     assert [(r.machine, r.axis, r.value) for r in ov.rows] == expected_order(axes)
     by_key = {(r.machine, r.axis, r.value): r for r in ov.rows}
     kinds = {"beyond": 0, "dated": 0, "undated": 0}
