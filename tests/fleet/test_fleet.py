@@ -188,6 +188,7 @@ def test_fleet_order_and_crossing_dates_against_numpy(catalog_url: str) -> None:
         assert r.limit_source == ("catalogue" if ax.catalogue_limit is not None else "[tolerance] of run run-"
                                   f"{len([x for x in ax.runs if x[3] == 'complete' and x[0] < NOW]) - 1:02d}")
         assert r.run is not None and r.run.date == e["last"]
+        assert r.run.operator.startswith("op-") and r.compensation_text() == "none" and r.verdict == "pass"
         assert r.beyond == (e["beyond_since"] is not None)
         if e["beyond_since"] is not None:
             kinds["beyond"] += 1
