@@ -21,7 +21,7 @@ from saved_runs.errors import UserError
 
 from .config import HIDDEN, configured_url, masked_url
 
-SCHEMA_VERSION = 2  # raise it with every change of the tables below (and say in docs/fleet.md what changed)
+SCHEMA_VERSION = 3  # raise it with every change of the tables below (and say in docs/fleet.md what changed)
 CONNECT_TIMEOUT_S = 10  # a PostgreSQL server that does not answer: give up after this long
 # A statement the server runs longer than this is cancelled by the server (a lock held by a stuck rig) ...
 STATEMENT_TIMEOUT_S = 30
@@ -56,8 +56,32 @@ runs_table = sa.Table(
     sa.Column("added", sa.String(40), nullable=False),
     # schema 2: the evaluation options of the values, JSON (entry.py); null in rows written by schema 1
     sa.Column("options_json", sa.Text, nullable=True),
+    # schema 3: what the fleet overview shows of run.json besides the values, JSON (entry.py ``facts``:
+    # operator, compensation state, instrument records, decision rule); null in rows written by schema 1 and 2
+    sa.Column("facts_json", sa.Text, nullable=True),
     sa.Index("ix_guideway_runs_machine_axis_created", "machine", "axis", "created"),
     sa.Index("ix_guideway_runs_created", "created"),
+)
+
+
+# schema 3: the tolerance of a headline value per machine and axis, set with ``guideway catalog tolerance``; it
+# takes the place of the runs' own [tolerance] in the fleet overview (docs/fleet.md, "Fleet overview").
+tolerances_table = sa.Table(
+    "guideway_tolerances", metadata,
+    sa.Column("machine", sa.String(255), primary_key=True),
+    sa.Column("axis", sa.String(255), primary_key=True),
+    sa.Column("value", sa.String(64), primary_key=True),
+    sa.Column("limit_um", sa.Float, nullable=False),  # arc-seconds on a rotary axis, as the values are
+    sa.Column("set_at", sa.String(40), nullable=False),
+)
+
+# schema 3: the calibration interval of a machine axis (days), set with ``guideway catalog interval``.
+intervals_table = sa.Table(
+    "guideway_intervals", metadata,
+    sa.Column("machine", sa.String(255), primary_key=True),
+    sa.Column("axis", sa.String(255), primary_key=True),
+    sa.Column("days", sa.Float, nullable=False),
+    sa.Column("set_at", sa.String(40), nullable=False),
 )
 
 
@@ -358,6 +382,11 @@ def _migrate(conn: Any, version: int) -> None:
         columns = {c["name"] for c in sa.inspect(conn).get_columns(runs_table.name)}
         if "options_json" not in columns:
             conn.execute(sa.text(f"ALTER TABLE {runs_table.name} ADD COLUMN options_json TEXT"))
+    if version < 3:  # schema 3: the tolerances and intervals kept per machine axis, and each entry's facts
+        columns = {c["name"] for c in sa.inspect(conn).get_columns(runs_table.name)}
+        if "facts_json" not in columns:
+            conn.execute(sa.text(f"ALTER TABLE {runs_table.name} ADD COLUMN facts_json TEXT"))
+        metadata.create_all(conn, tables=[tolerances_table, intervals_table], checkfirst=True)
     conn.execute(sa.update(info_table).where(info_table.c.key == "schema_version")
                  .values(value=str(SCHEMA_VERSION)))
 

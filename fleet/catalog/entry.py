@@ -21,8 +21,8 @@ run processed with other options (a 20-trial first-order evaluation) is told fro
 A positioning run's compensation state (``compensation``): the table active in the controller while it was
 measured, from run.json ``compensation`` — ``{"active": false}`` (none), ``{"active": true, "file", "format",
 "sha256"}``, or ``{"active": null}`` (not recorded: a run from before the record); None for a straightness
-run and for an entry catalogued before the catalogue kept it.  Stored in the ``values_json`` column under
-:data:`COMPENSATION_KEY` (schema unchanged), taken out of ``values`` when read.
+run and for an entry catalogued before the catalogue kept it (schema 1 and 2).  It is one of the run's
+``facts`` (:func:`run_facts`, the ``facts_json`` column of schema 3).
 """
 
 from __future__ import annotations
@@ -44,7 +44,6 @@ from saved_runs.store.format import FORMAT, run_axis
 HASHED_FILES = ("run.json", "points.csv")
 # Headline values with a sign, catalogued for their trend; no [tolerance] key names them (B_um bounds |B_i|).
 SIGNED_QUANTITIES = ("B_mean",)
-COMPENSATION_KEY = "_compensation"  # the compensation state in values_json (runs.py)
 
 
 class RunUnreadable(UserError):
@@ -68,7 +67,7 @@ class Entry:
     note: str = ""
     options: dict[str, Any] | None = None  # the evaluation options of ``values`` (None: not known, schema 1)
     option_defaults: dict[str, Any] = field(default_factory=dict)  # those of guideway process for this run
-    compensation: dict[str, Any] | None = None  # the run's compensation state (module docstring)
+    facts: dict[str, Any] | None = None  # run_facts() of run.json (None: not known, an entry of schema 1 or 2)
 
     def non_default_options(self) -> dict[str, Any]:
         """The options of the evaluation that differ from process' defaults (name -> value used; one the
@@ -83,6 +82,13 @@ class Entry:
                 "options": self.options, "option_defaults": self.option_defaults,
                 "non_default_options": self.non_default_options(),
                 "compensation": self.compensation}
+
+    @property
+    def compensation(self) -> dict[str, Any] | None:
+        """The run's compensation state (module docstring), from its facts."""
+        if self.kind != "positioning" or self.facts is None:
+            return None
+        return self.facts.get("compensation")
 
     def compensation_text(self) -> str:
         """The compensation state in a few words: ``none``, ``x.comp 6c0211989feb``, ``not recorded``, or ``-``
@@ -256,6 +262,45 @@ def evaluation_options(summary: dict[str, Any], points: int) -> tuple[dict[str, 
     return {}, {}
 
 
+INSTRUMENT_KEYS = ("role", "model", "serial", "certificate", "calibrated", "due")
+
+
+def instrument_records(meta: dict[str, Any]) -> list[dict[str, str]]:
+    """The calibration records of the instruments of a run, each with the keys ``role, model, serial,
+    certificate, calibrated, due`` (those it has): run.json ``setup.instruments``, the list the set-up's
+    ``[[instrument]]`` tables are recorded as; else a top-level ``instruments`` list of such records, or an
+    ``instruments`` object whose members carry a ``due`` date (the devices' identities, which carry none, are
+    no calibration records).  A run without them gives []."""
+    raw = (meta.get("setup") or {}).get("instruments") if isinstance(meta.get("setup"), dict) else None
+    if not isinstance(raw, list):
+        raw = meta.get("instruments")
+    if isinstance(raw, dict):
+        items = [{"role": k, **v} for k, v in raw.items() if isinstance(v, dict) and v.get("due")]
+    elif isinstance(raw, list):
+        items = [v for v in raw if isinstance(v, dict)]
+    else:
+        items = []
+    return [{k: str(v[k]) for k in INSTRUMENT_KEYS if v.get(k) not in (None, "")} for v in items]
+
+
+def run_facts(meta: dict[str, Any], summary: dict[str, Any] | None = None) -> dict[str, Any]:
+    """What the fleet overview shows of a run besides its values: ``operator``, the controller
+    ``compensation`` state (``{"active": true, "file", "sha256"}``, ``{"active": false}``, or
+    ``{"active": null}``: not recorded), the ``instruments`` calibration records and the ``decision_rule``
+    of the verdict as the evaluation names it (None: not named)."""
+    comp = run_compensation(meta)
+    state: dict[str, Any] = {"active": comp.get("active") if comp.get("recorded") else None}
+    if state["active"]:
+        state.update({"file": str(comp.get("file") or ""), "format": str(comp.get("format") or ""),
+                      "sha256": str(comp.get("sha256") or "")})
+    verdict = (summary or {}).get("verdict")
+    rule = None
+    if isinstance(verdict, dict):
+        rule = verdict.get("decision_rule") or verdict.get("rule")
+    return {"operator": str(meta.get("operator") or ""), "compensation": state,
+            "instruments": instrument_records(meta), "decision_rule": None if rule is None else str(rule)}
+
+
 def make_entry(files: RunFiles) -> Entry:
     """The catalogue entry of a run read by :func:`read_run_files` (evaluating it if its results are missing
     or stale)."""
@@ -266,18 +311,7 @@ def make_entry(files: RunFiles) -> Entry:
     options, defaults = evaluation_options(summary, files.points) if summary is not None else ({}, {})
     return Entry(uid=files.uid, path=str(files.path), **identity(meta), content_hash=files.content_hash,
                  values=values, verdict=verdict.get("result") if isinstance(verdict, dict) else None, note=note,
-                 options=options, option_defaults=defaults,
-                 compensation=compensation_state(meta))
-
-
-def compensation_state(meta: dict[str, Any]) -> dict[str, Any] | None:
-    """What an entry keeps of run.json ``compensation`` (module docstring); None for a straightness run."""
-    if meta.get("kind") != "positioning":
-        return None
-    rec = run_compensation(meta)
-    if not rec.get("active"):
-        return {"active": rec.get("active")}
-    return {"active": True, **{k: rec.get(k) for k in ("file", "format", "sha256")}}
+                 options=options, option_defaults=defaults, facts=run_facts(meta, summary))
 
 
 def identity(meta: dict[str, Any]) -> dict[str, str]:

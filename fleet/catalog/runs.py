@@ -20,7 +20,7 @@ import sqlalchemy as sa
 from saved_runs.errors import UserError
 
 from .database import Catalog, runs_table
-from .entry import COMPENSATION_KEY, Entry, RunFiles, RunUnreadable, identity, make_entry, read_run_files
+from .entry import Entry, RunFiles, RunUnreadable, identity, make_entry, read_run_files
 
 BATCH = 200  # rows written per transaction while scanning
 
@@ -61,14 +61,10 @@ def _now() -> str:
 def _row(entry: Entry) -> dict[str, Any]:
     options = json.dumps({"options": entry.options or {}, "defaults": entry.option_defaults}, allow_nan=False)
     return {"uid": entry.uid, "path": entry.path, "machine": entry.machine, "axis": entry.axis, "kind": entry.kind,
-            "created": entry.created, "status": entry.status, "values_json": _values_json(entry),
-            "verdict": entry.verdict, "content_hash": entry.content_hash, "added": _now(), "options_json": options}
+            "created": entry.created, "status": entry.status, "values_json": json.dumps(entry.values, allow_nan=False),
+            "verdict": entry.verdict, "content_hash": entry.content_hash, "added": _now(), "options_json": options,
+            "facts_json": None if entry.facts is None else json.dumps(entry.facts, allow_nan=False)}
 
-
-def _values_json(entry: Entry) -> str:
-    """The headline values, and the compensation state under COMPENSATION_KEY (entry.py)."""
-    values = entry.values if entry.compensation is None else {**entry.values, COMPENSATION_KEY: entry.compensation}
-    return json.dumps(values, allow_nan=False)
 
 
 def _upsert(cat: Catalog, rows: list[dict[str, Any]]) -> tuple[set[str], set[str]]:
@@ -238,14 +234,13 @@ def _written(cat: Catalog, rows: list[dict[str, Any]], told: list[AddOutcome]) -
                                  f"another process at {where}; left as it is", o.uid)
 
 
-def _entry(row: Any) -> Entry:
-    values = json.loads(row.values_json)
-    compensation = values.pop(COMPENSATION_KEY, None)
+def entry_of_row(row: Any) -> Entry:
     options = json.loads(row.options_json) if row.options_json else {}  # none in the rows of schema 1
+    facts = getattr(row, "facts_json", None)  # none in the rows of schema 1 and 2
     return Entry(uid=row.uid, path=row.path, machine=row.machine, axis=row.axis, kind=row.kind, created=row.created,
-                 status=row.status, content_hash=row.content_hash, values=values,
+                 status=row.status, content_hash=row.content_hash, values=json.loads(row.values_json),
                  verdict=row.verdict, options=options.get("options"), option_defaults=options.get("defaults") or {},
-                 compensation=compensation)
+                 facts=json.loads(facts) if facts else None)
 
 
 def since_text(date: str) -> str:
@@ -272,7 +267,7 @@ def list_entries(cat: Catalog, *, machine: str | None = None, axis: str | None =
         q = q.where(t.c.created >= since_text(since))
     q = q.order_by(t.c.created.asc() if oldest_first else t.c.created.desc(), t.c.uid)
     with cat.engine.connect() as conn:
-        return [_entry(r) for r in conn.execute(q)]
+        return [entry_of_row(r) for r in conn.execute(q)]
 
 
 def remove_run(cat: Catalog, run: str) -> Entry:
@@ -288,4 +283,15 @@ def remove_run(cat: Catalog, run: str) -> Entry:
         if row is None:
             raise UserError(f"{run}: no such run in the catalogue {cat.url}; see guideway catalog list")
         conn.execute(sa.delete(t).where(t.c.uid == row.uid))
-    return _entry(row)
+    return entry_of_row(row)
+
+
+def write_entries(cat: Catalog, entries: Iterable[Entry]) -> int:
+    """Write ``entries`` as they are (no run directory read), ``BATCH`` rows per transaction; return how many
+    rows were inserted or replaced.  For tools and tests that build a catalogue from entries."""
+    rows = [_row(e) for e in entries]
+    done = 0
+    for i in range(0, len(rows), BATCH * 5):
+        inserted, updated = _upsert(cat, rows[i:i + BATCH * 5])
+        done += len(inserted) + len(updated)
+    return done

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
+from functools import lru_cache
 from typing import Any
 
 DAYS_PER_YEAR = 365.25  # the Julian year
@@ -48,6 +49,7 @@ class TrendPoint:
         return {"run": self.run, "name": self.name, "date": self.date, "value_um": self.value_um, "u_um": self.u_um}
 
 
+@lru_cache(maxsize=1 << 16)  # a fit parses each date several times; the fleet overview fits thousands of runs
 def parse_date(text: str) -> datetime:
     """run.json ``created`` (ISO 8601, UTC when it names no zone) as an aware datetime."""
     when = datetime.fromisoformat(text.replace("Z", "+00:00"))

@@ -31,7 +31,8 @@ def _drop_tables(url: str) -> None:
 
     engine = sa.create_engine(url.replace("postgresql://", "postgresql+psycopg://"))
     with engine.begin() as conn:
-        conn.execute(sa.text("DROP TABLE IF EXISTS guideway_runs, guideway_catalog"))
+        conn.execute(sa.text("DROP TABLE IF EXISTS guideway_runs, guideway_catalog, guideway_tolerances, "
+                             "guideway_intervals"))
     engine.dispose()
 
 

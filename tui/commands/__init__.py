@@ -31,6 +31,7 @@ COMMAND_MODULES = (
     "verify",
     "catalog",
     "trend",
+    "fleet",
     "tui",
 )
 

@@ -3,6 +3,8 @@
     guideway catalog add RUN... | --scan DIR   [--catalog URL]
     guideway catalog list [--machine M] [--axis A] [--kind K] [--since DATE] [--json] [--catalog URL]
     guideway catalog remove RUN [--catalog URL]
+    guideway catalog tolerance --machine M --axis A --value V --limit L | --list [--machine M] | --remove ...
+    guideway catalog interval --machine M --axis A --days D | --list [--machine M] | --remove ...
 
 ``--catalog`` (or ``GUIDEWAY_CATALOG``) names the database: ``sqlite:///PATH`` or
 ``postgresql://USER@HOST/DB``; default a SQLite file in the user's data directory.
@@ -125,6 +127,71 @@ def run_remove(args: argparse.Namespace) -> int:
     return 0
 
 
+def _setting_args(args: argparse.Namespace, what: str, needed: tuple[str, ...]) -> None:
+    """Refuse a set or remove that lacks one of ``needed`` (one line naming it)."""
+    from saved_runs.errors import UserError
+
+    missing = [f"--{n}" for n in needed if getattr(args, n) is None]
+    if missing:
+        raise UserError(f"catalog {what}: give {', '.join(missing)} (or --list to see what is kept)")
+
+
+def run_tolerance(args: argparse.Namespace) -> int:
+    """Set, list or remove the tolerances the catalogue keeps per machine axis (the fleet overview's limits)."""
+    from fleet.catalog.settings import list_tolerances, remove_tolerance, set_tolerance
+
+    with _open(args) as cat:
+        if args.list:
+            tols = list_tolerances(cat, args.machine)
+            if args.json:
+                json.dump({"tolerances": [t.to_dict() for t in tols]}, sys.stdout, allow_nan=False)
+                sys.stdout.write("\n")
+            for t in ([] if args.json else tols):
+                print(printable(f"{t.machine or '-':<14} {t.axis or '-':<6} {t.value:<14} {t.limit_um:g}  "
+                                f"(set {t.set_at})"))
+            if not args.json:
+                print(f"{len(tols)} tolerance(s) in {cat.url}", file=sys.stderr)
+            return 0
+        if args.remove:
+            _setting_args(args, "tolerance --remove", ("machine", "axis", "value"))
+            remove_tolerance(cat, args.machine, args.axis, args.value)
+            print(printable(f"removed the tolerance of {args.value} on machine {args.machine} axis {args.axis}: "
+                            "the runs' own [tolerance] applies again"))
+            return 0
+        _setting_args(args, "tolerance", ("machine", "axis", "value", "limit"))
+        t = set_tolerance(cat, args.machine, args.axis, args.value, args.limit)
+        print(printable(f"tolerance of {t.value} on machine {t.machine} axis {t.axis}: {t.limit_um:g} (um; arcsec "
+                        f"on a rotary axis), kept in {cat.url}"))
+    return 0
+
+
+def run_interval(args: argparse.Namespace) -> int:
+    """Set, list or remove the calibration intervals the catalogue keeps per machine axis."""
+    from fleet.catalog.settings import list_intervals, remove_interval, set_interval
+
+    with _open(args) as cat:
+        if args.list:
+            ivs = list_intervals(cat, args.machine)
+            if args.json:
+                json.dump({"intervals": [i.to_dict() for i in ivs]}, sys.stdout, allow_nan=False)
+                sys.stdout.write("\n")
+            for i in ([] if args.json else ivs):
+                print(printable(f"{i.machine or '-':<14} {i.axis or '-':<6} every {i.days:g} days  (set {i.set_at})"))
+            if not args.json:
+                print(f"{len(ivs)} interval(s) in {cat.url}", file=sys.stderr)
+            return 0
+        if args.remove:
+            _setting_args(args, "interval --remove", ("machine", "axis"))
+            remove_interval(cat, args.machine, args.axis)
+            print(printable(f"removed the calibration interval of machine {args.machine} axis {args.axis}"))
+            return 0
+        _setting_args(args, "interval", ("machine", "axis", "days"))
+        i = set_interval(cat, args.machine, args.axis, args.days)
+        print(printable(f"calibration interval of machine {i.machine} axis {i.axis}: {i.days:g} days, kept in "
+                        f"{cat.url}"))
+    return 0
+
+
 def add_catalog_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--catalog", default=None, metavar="URL",
                         help="catalogue database: sqlite:///PATH or postgresql://USER@HOST/DB (default: "
@@ -151,3 +218,24 @@ def register(sub) -> None:  # noqa: ANN001
     r.add_argument("run", metavar="RUN", help="run directory or uid")
     add_catalog_option(r)
     r.set_defaults(func=run_remove)
+    tl = cs.add_parser("tolerance", help="keep the tolerance of a value per machine axis (the fleet overview's limit)")
+    tl.add_argument("--machine", default=None)
+    tl.add_argument("--axis", default=None)
+    tl.add_argument("--value", default=None, metavar="NAME", help="minimum_zone, least_squares, endpoint, E, M, B, ...")
+    tl.add_argument("--limit", type=float, default=None, metavar="L", help="limit in um (arcsec on a rotary axis)")
+    what = tl.add_mutually_exclusive_group()
+    what.add_argument("--list", action="store_true", help="list the tolerances kept (of --machine)")
+    what.add_argument("--remove", action="store_true", help="forget the tolerance of --machine --axis --value")
+    tl.add_argument("--json", action="store_true", help='with --list: print {"tolerances": [...]}')
+    add_catalog_option(tl)
+    tl.set_defaults(func=run_tolerance)
+    iv = cs.add_parser("interval", help="keep the calibration interval of a machine axis (days between runs)")
+    iv.add_argument("--machine", default=None)
+    iv.add_argument("--axis", default=None)
+    iv.add_argument("--days", type=float, default=None, metavar="D", help="a run is due D days after the last one")
+    what = iv.add_mutually_exclusive_group()
+    what.add_argument("--list", action="store_true", help="list the intervals kept (of --machine)")
+    what.add_argument("--remove", action="store_true", help="forget the interval of --machine --axis")
+    iv.add_argument("--json", action="store_true", help='with --list: print {"intervals": [...]}')
+    add_catalog_option(iv)
+    iv.set_defaults(func=run_interval)

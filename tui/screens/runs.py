@@ -44,7 +44,8 @@ class RunsScreen(Screen):
     SUB_TITLE = SCREEN_NAME
     BINDINGS = [Binding("enter", "open", "open results"), Binding("c", "resume", "continue (resume)"),
                 Binding("space", "mark", "mark"), Binding("x", "compare", "compare marked"),
-                Binding("t", "trend", "trend"), Binding("m", "filter('machine')", "machine"),
+                Binding("t", "trend", "trend"), Binding("o", "fleet", "fleet overview"),
+                Binding("m", "filter('machine')", "machine"),
                 Binding("a", "filter('axis')", "axis"), Binding("l", "source", "folder/catalogue"),
                 Binding("r", "reload", "reload"), Binding("f2", "app.setup", "set-up"),
                 # the first / last run (the table's own Home / End scroll sideways)
@@ -164,7 +165,7 @@ class RunsScreen(Screen):
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         """Only the keys that work now are offered (and listed by ? and the footer)."""
-        if action in ("trend", "filter"):
+        if action in ("trend", "filter", "fleet"):
             return self.from_catalog
         if action == "source":
             return self.catalog_url is not None
@@ -214,6 +215,13 @@ class RunsScreen(Screen):
         from .trend import TrendScreen
 
         self.app.push_screen(TrendScreen(self.catalog_url, r.machine, r.axis, DEFAULT_TREND_VALUE.get(r.kind, "E")))
+
+    def action_fleet(self) -> None:
+        """The fleet overview of the catalogue (tui/screens/fleet.py)."""
+        if self.from_catalog:
+            from .fleet import FleetScreen
+
+            self.app.push_screen(FleetScreen(self.catalog_url))
 
     def action_filter(self, which: str) -> None:
         """Step the machine or axis filter: any, then each value the catalogue holds, then any again."""
