@@ -21,7 +21,7 @@ import hal
 import linuxcnc
 
 PINS = ("pos-cmd", "motor-pos-cmd", "backlash-corr", "backlash-filt", "backlash-vel", "motor-offset")
-AXES = "XYZ"
+AXES = "XYZUVW"  # linear axes, one joint each
 
 
 def main() -> int:

@@ -44,7 +44,7 @@ SYSTEM_PYTHON = Path("/usr/bin/python3")
 INSTANCE_LOCK = Path("/tmp/linuxcnc.lock")  # the launcher's: an instance is up
 DRIVER = Path(__file__).resolve().parent / "linuxcnc_driver.py"
 FALLBACK_USER = "nobody"
-AXES = "XYZ"
+AXES = "XYZUVW"  # linear axes, one joint each
 # the simulated joints: fast moves (the ramp of the correction takes half of these)
 SERVO_PERIOD_NS = 1_000_000
 MAX_VELOCITY = 200.0  # mm/s
@@ -209,7 +209,7 @@ def _stop(proc: subprocess.Popen[bytes]) -> None:
 
 def run_linuxcnc(config: Path, files: Sequence[CompFile], stops: Sequence[float], *, timeout_s: float = 120.0,
                  busy_wait_s: float = 60.0) -> list[Stop]:
-    """Run LinuxCNC with joint j reading ``files[j]`` (at most 3 joints, X Y Z, mm), home every joint at
+    """Run LinuxCNC with joint j reading ``files[j]`` (at most 6 joints, X Y Z U V W, mm), home every joint at
     0, move all of them together to each of ``stops`` in turn (G53 G0) and return the HAL pins at each.
 
     ``config``: an empty directory for the config, the files and the logs.  Raises RuntimeError with
@@ -238,9 +238,9 @@ def run_linuxcnc(config: Path, files: Sequence[CompFile], stops: Sequence[float]
         if os.geteuid() == 0:
             shutil.chown(fifo_dir, FALLBACK_USER)
         with _one_instance(busy_wait_s), open(log, "wb") as out:
-            proc = subprocess.Popen([str(LAUNCHER), "-r", str(config / "sim.ini")], cwd=config, stdin=subprocess.DEVNULL,
-                                    stdout=out, stderr=subprocess.STDOUT, env=_environment(config, fifo_dir / "fifo"),
-                                    start_new_session=True)
+            proc = subprocess.Popen([str(LAUNCHER), "-r", str(config / "sim.ini")], cwd=config,
+                                    stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
+                                    env=_environment(config, fifo_dir / "fifo"), start_new_session=True)
             try:
                 code = proc.wait(timeout=timeout_s)
             except subprocess.TimeoutExpired:

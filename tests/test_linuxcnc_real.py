@@ -47,6 +47,7 @@ TOL_MM = 1e-6  # the table is evaluated at the last servo sample with motion, a 
 _A_T2_MM = MAX_ACCELERATION / 2.0 * (SERVO_PERIOD_NS * 1e-9) ** 2
 COMMENT_AFTER = 3  # entries of the third file before its comment line
 OVERRUN_MM = 5.0
+STEPS_UM = (0.2, 0.4, 0.6)  # below, in and above the ramp's dead band (0.25, 0.5] um
 
 
 @dataclass(frozen=True)
@@ -55,7 +56,8 @@ class Check:
 
     targets: np.ndarray  # mm
     mean_um: dict[int, np.ndarray]  # direction -> mean error (reading - target) per target, um
-    files: tuple[CompFile, ...]  # joint 0: type 0, joint 1: type 1, joint 2: type 1 with a comment line
+    files: tuple[CompFile, ...]  # joint 0: type 0, joint 1: type 1, joint 2: type 1 with a comment line,
+    #                              3 …: a reversal step of STEPS_UM
     stops: list[Stop]
     directions: list[int]  # the direction of the move that ended at each stop
 
@@ -112,7 +114,9 @@ def check(tmp_path_factory: pytest.TempPathFactory) -> Check:
     lines = texts[1].splitlines(keepends=True)
     commented = "".join(lines[:COMMENT_AFTER]) + "# entries below this line are never read\n" + "".join(
         lines[COMMENT_AFTER:])
-    files = (CompFile(texts[0], 0), CompFile(texts[1], 1), CompFile(commented, 1))
+    # and constant trims on a reversal only (0 moving +, STEP_UM moving -): LinuxCNC's ramp, alone
+    steps = tuple(CompFile(f"-100.0 0.0 {um / 1000:.6f}\n1000.0 0.0 {um / 1000:.6f}\n", 1) for um in STEPS_UM)
+    files = (CompFile(texts[0], 0), CompFile(texts[1], 1), CompFile(commented, 1), *steps)
     stops, directions = _plan(targets)
     try:
         recorded = run_linuxcnc(tmp / "config", files, stops)
@@ -188,3 +192,23 @@ def test_a_comment_line_mid_file_ends_the_table_silently(check: Check) -> None:
             assert abs(stop.joints[1]["backlash-corr"] - full) <= TOL_MM
             beyond += abs(full - held) > 100 * TOL_MM
     assert beyond >= 2
+
+
+def test_linuxcnc_ramp_never_starts_for_a_step_from_rest_in_its_dead_band(check: Check) -> None:
+    """The quirk the comparison above allows for, seen on its own (shared/reference/linuxcnc.md): a
+    reversal step of the correction from rest is applied below a T²/2 and above a T², not in between
+    (the simulated stage applies every step: a real axis never stops in that state)."""
+    assert (_A_T2_MM / 2, _A_T2_MM) == pytest.approx((0.25e-3, 0.5e-3))
+    for k, step_um in enumerate(STEPS_UM):
+        stage = _stage(check.files[3 + k])
+        in_band = _A_T2_MM / 2 < step_um / 1000 <= _A_T2_MM
+        for stop, direction in zip(check.stops, check.directions, strict=True):
+            pins = stop.joints[3 + k]
+            expected = stage.move_to(stop.commanded)
+            assert expected == pytest.approx(step_um / 1000 if direction < 0 else 0.0, abs=1e-10)  # float trims
+            assert abs(pins["backlash-corr"] - expected) <= TOL_MM
+            applied = pins["motor-pos-cmd"] - pins["pos-cmd"] - pins["motor-offset"]
+            if in_band:
+                assert applied == pytest.approx(0.0, abs=1e-12), (step_um, stop.commanded)  # never started
+            else:
+                assert abs(applied - expected) <= TOL_MM, (step_um, stop.commanded)
