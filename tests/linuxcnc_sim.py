@@ -38,6 +38,9 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NoReturn
+
+import pytest
 
 LAUNCHER = Path("/usr/bin/linuxcnc")
 SYSTEM_PYTHON = Path("/usr/bin/python3")
@@ -66,6 +69,13 @@ def required() -> bool:
     return any(os.environ.get(v, "").strip() not in ("", "0", "false") for v in ("CI", "GUIDEWAY_REQUIRE_LINUXCNC"))
 
 
+def cannot_run(reason: str) -> NoReturn:
+    """Skip the test with ``reason``, or fail it where LinuxCNC is required (CI)."""
+    if required():
+        pytest.fail(f"{reason} (CI must run the LinuxCNC tests: GUIDEWAY_REQUIRE_LINUXCNC / CI is set)", pytrace=False)
+    pytest.skip(f"{reason}; the LinuxCNC tests need it locally")
+
+
 class LinuxCncBusy(RuntimeError):
     """Another LinuxCNC instance (not started by these tests) is running on this machine."""
 
@@ -87,8 +97,9 @@ class CompFile:
 
 
 @contextmanager
-def _one_instance(wait_s: float) -> Iterator[None]:
-    """Hold the machine-wide test lock and see that no other LinuxCNC is up (waiting ``wait_s`` for it)."""
+def one_instance(wait_s: float) -> Iterator[None]:
+    """Hold the machine-wide test lock and see that no other LinuxCNC is up (waiting ``wait_s`` for it);
+    :class:`LinuxCncBusy` if one stays up."""
     # an flock on the launcher: a file every process on the machine sees, and nothing left behind
     with open(LAUNCHER, "rb") as f:
         fcntl.flock(f, fcntl.LOCK_EX)
@@ -207,8 +218,8 @@ def _stop(proc: subprocess.Popen[bytes]) -> None:
         proc.wait(timeout=10)
 
 
-def run_linuxcnc(config: Path, files: Sequence[CompFile], stops: Sequence[float], *, timeout_s: float = 120.0,
-                 busy_wait_s: float = 60.0) -> list[Stop]:
+def run_linuxcnc(config: Path, files: Sequence[CompFile], stops: Sequence[float], *, timeout_s: float = 80.0,
+                 busy_wait_s: float = 20.0) -> list[Stop]:
     """Run LinuxCNC with joint j reading ``files[j]`` (at most 6 joints, X Y Z U V W, mm), home every joint at
     0, move all of them together to each of ``stops`` in turn (G53 G0) and return the HAL pins at each.
 
@@ -237,7 +248,7 @@ def run_linuxcnc(config: Path, files: Sequence[CompFile], stops: Sequence[float]
         fifo_dir.chmod(0o755)
         if os.geteuid() == 0:
             shutil.chown(fifo_dir, FALLBACK_USER)
-        with _one_instance(busy_wait_s), open(log, "wb") as out:
+        with one_instance(busy_wait_s), open(log, "wb") as out:
             proc = subprocess.Popen([str(LAUNCHER), "-r", str(config / "sim.ini")], cwd=config,
                                     stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
                                     env=_environment(config, fifo_dir / "fifo"), start_new_session=True)

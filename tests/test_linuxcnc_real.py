@@ -30,6 +30,7 @@ import pandas as pd
 import pytest
 
 from processing.compensation.stage import Compensator, load_controller_table
+from tests import linuxcnc_sim
 from tests.cli import ROOT, guideway
 from tests.linuxcnc_sim import (
     MAX_ACCELERATION,
@@ -37,8 +38,9 @@ from tests.linuxcnc_sim import (
     CompFile,
     LinuxCncBusy,
     Stop,
+    cannot_run,
     missing,
-    required,
+    one_instance,
     run_linuxcnc,
 )
 
@@ -92,9 +94,7 @@ def _plan(targets: np.ndarray) -> tuple[list[float], list[int]]:
 def check(tmp_path_factory: pytest.TempPathFactory) -> Check:
     reason = missing()
     if reason:
-        if required():
-            pytest.fail(f"{reason} (CI must run the LinuxCNC tests)", pytrace=False)
-        pytest.skip(f"{reason}; the LinuxCNC tests need it locally")
+        cannot_run(reason)
     tmp = tmp_path_factory.mktemp("linuxcnc")
     run = tmp / "found"
     res = guideway("acquire", "positioning", "--setup", _setup(tmp), "--out", run, "--simulate", "--auto",
@@ -121,9 +121,7 @@ def check(tmp_path_factory: pytest.TempPathFactory) -> Check:
     try:
         recorded = run_linuxcnc(tmp / "config", files, stops)
     except LinuxCncBusy as exc:
-        if required():
-            pytest.fail(str(exc), pytrace=False)
-        pytest.skip(str(exc))
+        cannot_run(str(exc))
     assert [s.commanded for s in recorded] == pytest.approx(stops, abs=1e-9)
     return Check(targets, mean_um, files, recorded, directions)
 
@@ -212,3 +210,38 @@ def test_linuxcnc_ramp_never_starts_for_a_step_from_rest_in_its_dead_band(check:
                 assert applied == pytest.approx(0.0, abs=1e-12), (step_um, stop.commanded)  # never started
             else:
                 assert abs(applied - expected) <= TOL_MM, (step_um, stop.commanded)
+
+
+# --- the harness itself (no LinuxCNC needed) ---------------------------------------------------
+
+
+@pytest.mark.parametrize(("env", "outcome"), [({}, pytest.skip.Exception),
+                                              ({"GUIDEWAY_REQUIRE_LINUXCNC": "1"}, pytest.fail.Exception),
+                                              ({"CI": "true"}, pytest.fail.Exception),
+                                              ({"GUIDEWAY_REQUIRE_LINUXCNC": "0"}, pytest.skip.Exception)])
+def test_without_linuxcnc_the_tests_skip_locally_and_fail_in_ci(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
+                                                                 env: dict[str, str], outcome: type) -> None:
+    for var in ("CI", "GUIDEWAY_REQUIRE_LINUXCNC"):
+        monkeypatch.delenv(var, raising=False)
+    for var, value in env.items():
+        monkeypatch.setenv(var, value)
+    monkeypatch.setattr(linuxcnc_sim, "LAUNCHER", tmp_path / "no-linuxcnc")
+    reason = missing()
+    assert reason == "LinuxCNC is not installed (apt-get install linuxcnc-uspace)"
+    with pytest.raises(outcome, match="apt-get install linuxcnc-uspace"):
+        cannot_run(reason)
+
+
+def test_the_harness_never_starts_while_another_instance_is_up(monkeypatch: pytest.MonkeyPatch,
+                                                              tmp_path: Path) -> None:
+    # the launcher's lock file, here a stand-in: another instance is up and stays up
+    lock, launcher = tmp_path / "linuxcnc.lock", tmp_path / "linuxcnc"
+    launcher.touch()  # the file the tests' own flock is on
+    monkeypatch.setattr(linuxcnc_sim, "INSTANCE_LOCK", lock)
+    monkeypatch.setattr(linuxcnc_sim, "LAUNCHER", launcher)
+    lock.touch()
+    with pytest.raises(LinuxCncBusy, match="do not stop an instance they did not start"), one_instance(wait_s=0.2):
+        pytest.fail("started although another instance is up")
+    lock.unlink()
+    with one_instance(wait_s=0.2):
+        pass
