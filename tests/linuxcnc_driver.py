@@ -29,6 +29,8 @@ def main() -> int:
     with open(os.path.join(here, "plan.json"), encoding="utf-8") as f:
         plan = json.load(f)
     joints, stops, out = int(plan["joints"]), [float(x) for x in plan["stops"]], os.path.join(here, plan["out"])
+    with open(os.path.join(here, "driver.pid"), "w", encoding="utf-8") as f:
+        f.write(str(os.getpid()))  # for the harness to end this run (the launcher then shuts LinuxCNC down)
     cmd, stat = linuxcnc.command(), linuxcnc.stat()
     probe = hal.component("guideway_probe")  # hal.get_value needs a component of this process
     probe.ready()

@@ -206,16 +206,32 @@ def _environment(config: Path, fifo: Path) -> dict[str, str]:
     return env
 
 
-def _stop(proc: subprocess.Popen[bytes]) -> None:
-    """End the launcher this module started: SIGTERM (its trap shuts LinuxCNC down), then its group."""
+def _stop(proc: subprocess.Popen[bytes], config: Path) -> None:
+    """End the LinuxCNC this module started (``proc``, the launcher, leads its own session).
+
+    The launcher shuts LinuxCNC down when its display exits, and defers its own SIGTERM trap until
+    then: so first the driver (its pid in driver.pid, checked to be of this session), then the
+    launcher, and only then SIGKILL to the session, after which the launcher's lock file (created
+    by this instance: none existed when it started) is removed so that later runs are not refused."""
     if proc.poll() is not None:
         return
-    proc.send_signal(signal.SIGTERM)
     try:
-        proc.wait(timeout=30)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)  # its own session: only what this call started
-        proc.wait(timeout=10)
+        pid = int((config / "driver.pid").read_text())
+        if os.getsid(pid) == proc.pid:
+            os.kill(pid, signal.SIGTERM)
+    except (OSError, ValueError):
+        pass  # not started yet, or already gone
+    for sig, wait_s in ((None, 20.0), (signal.SIGTERM, 20.0)):
+        if sig is not None:
+            proc.send_signal(sig)
+        try:
+            proc.wait(timeout=wait_s)
+            return
+        except subprocess.TimeoutExpired:
+            pass
+    os.killpg(proc.pid, signal.SIGKILL)  # its own session: only what this module started
+    proc.wait(timeout=10)
+    INSTANCE_LOCK.unlink(missing_ok=True)
 
 
 def run_linuxcnc(config: Path, files: Sequence[CompFile], stops: Sequence[float], *, timeout_s: float = 80.0,
@@ -255,10 +271,10 @@ def run_linuxcnc(config: Path, files: Sequence[CompFile], stops: Sequence[float]
             try:
                 code = proc.wait(timeout=timeout_s)
             except subprocess.TimeoutExpired:
-                _stop(proc)
+                _stop(proc, config)
                 raise RuntimeError(f"LinuxCNC did not finish within {timeout_s:g} s:\n{_tail(log)}") from None
             finally:
-                _stop(proc)
+                _stop(proc, config)
     finally:
         shutil.rmtree(fifo_dir, ignore_errors=True)
     if code != 0:
