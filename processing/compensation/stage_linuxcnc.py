@@ -16,7 +16,11 @@ shared/reference/linuxcnc.md "How the comp file is applied", read from LinuxCNC 
   rest the value of the last motion direction is held (before any motion it is 0).  Below the first
   and above the last entry that entry's trim is held (sentinels at ±DBL_MAX with slope 0).
 * ``motor_pos_cmd = pos_cmd + backlash_filt``: the trim is added to the command, so the axis moves
-  by +trim (the filter only ramps to it; at rest it has arrived).
+  by +trim (the filter only ramps to it; at rest it has arrived, except for a step from rest in
+  (a·T²/2, a·T²], a = MAX_ACCELERATION/2, T the servo period, which LinuxCNC's ramp never starts:
+  not modelled here).
+
+Checked against LinuxCNC 2.9 itself, headless: tests/test_linuxcnc_real.py (docs/compensation.md).
 
 Positions and trims in machine units (mm or deg).
 """
