@@ -273,6 +273,9 @@ class RunSession:
         if not self.operator.act(v.ticket, q):
             return False
         v.capture_when_stable = v.ticket
+        if self.info.setup is not None:  # the axis has been told to move: the light starts again from MOVING
+            self.live().stability.window.clear()
+            v.stability = self.live().stability.state = "moving"
         v.log.append(f"Cycle Start (simulated): the axis goes to {self.where()}; capture when it is STABLE")
         return True
 
