@@ -98,6 +98,10 @@ class RunScreen(Screen):
         return "the devices are being read"
 
     def action_confirm(self) -> None:
+        if self.session.cycle_start():  # simulated manual trigger: Space is Cycle Start, the capture follows
+            self.notify("Cycle Start (simulated): the capture follows when the light is STABLE")
+            self.refresh_view()
+            return
         q = self.instruction
         if q is None:
             self.refuse("capture" if isinstance(self, CaptureScreen) else "done")
@@ -359,13 +363,6 @@ class CaptureScreen(RunScreen):
             setup = self.session.info.setup
             return setup is not None and (self.session.info.kind == "straightness" or setup.trigger.mode == "manual")
         return super().check_action(action, parameters)
-
-    def action_confirm(self) -> None:
-        if self.session.cycle_start():  # simulated manual trigger: Space is Cycle Start, the capture follows
-            self.notify("Cycle Start (simulated): the capture follows when the light is STABLE")
-            self.refresh_view()
-            return
-        super().action_confirm()
 
     def instruction_text(self) -> str:
         text = super().instruction_text()
