@@ -143,7 +143,7 @@ class RunsScreen(Screen):
         # the rest of the screen (less a scroll bar and each column's padding of one cell either side); the
         # name column gives way so that the machine column has at least MACHINE_MIN_WIDTH on the screen (a
         # long name wraps instead: an 80-column screen never hides the machine beyond its right edge)
-        spare = width - 2 - 2 * (len(widths) + 1) - sum(widths)
+        spare = width - 2 * (len(widths) + 1) - sum(widths)
         if spare < MACHINE_MIN_WIDTH:
             widths[0] = name_w = max(CREATED_WIDTH if not wide else 10, name_w - (MACHINE_MIN_WIDTH - spare))
         machine_w = max(MACHINE_MIN_WIDTH, width - 2 - 2 * (len(widths) + 1) - sum(widths))
