@@ -15,13 +15,14 @@ from textual.binding import Binding
 from textual.containers import Horizontal, VerticalScroll
 from textual.markup import escape
 from textual.screen import Screen
-from textual.widgets import Footer, Header, Static
+from textual.widgets import Footer, Static
 from textual.worker import get_current_worker
 
 from saved_runs.errors import EXPECTED_ERRORS
 from saved_runs.evaluation.options import EDITIONS, METHODS
 from saved_runs.export.options import FORMATS, MODEL_NAMES, ExportOptions
 
+from ..widgets.header import RunHeader
 from ..widgets.plot import Plot, PlotData, Series
 
 LINE_NAMES = {"endpoint": "end-point", "least_squares": "least squares", "minimum_zone": "minimum zone"}
@@ -168,7 +169,7 @@ class ResultsScreen(Screen):
         self.problem = ""
 
     def compose(self) -> ComposeResult:
-        yield Header()
+        yield RunHeader()
         yield Static(id="run-title")
         with Horizontal(id="verdict"):
             yield Static(id="verdict-word")

@@ -15,11 +15,12 @@ from textual.binding import Binding
 from textual.containers import Container, Horizontal, Vertical
 from textual.markup import escape
 from textual.screen import Screen
-from textual.widgets import Digits, Footer, Header, ProgressBar, Sparkline, Static
+from textual.widgets import Digits, Footer, ProgressBar, Sparkline, Static
 
 from acquisition.messages import Instruct
 
 from ..session import RunSession
+from ..widgets.header import RunHeader
 from ..widgets.plot import Plot, PlotData, Series
 from ..widgets.readout import bar, readout_text
 
@@ -214,7 +215,7 @@ class ConnectScreen(RunScreen):
                 Binding("a", "abort", "abort")]
 
     def compose(self) -> ComposeResult:
-        yield Header()
+        yield RunHeader()
         yield Static(id="state")
         yield Static(id="instruction", classes="instruction")
         yield Static(id="readout")
@@ -341,7 +342,7 @@ class CaptureScreen(RunScreen):
                 Binding("p", "pause", "pause"), Binding("a", "abort", "abort")]
 
     def compose(self) -> ComposeResult:
-        yield Header()
+        yield RunHeader()
         with Horizontal(id="step-row"):
             yield Static(id="step")
             yield ProgressBar(total=max(1, self.session.info.total_steps), show_eta=False, id="progress")
