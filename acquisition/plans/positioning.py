@@ -242,7 +242,7 @@ def still_before_capture(setup: PositioningSetup, s: Stop) -> Generator[Message,
         seen = "not at rest"
     unit = "arcsec" if setup.axis_type == "rotary" else "um"
     answer = yield Prompt(
-        f"The axis is not still at {_where(s, u)} ({seen}; still = within {tr.stability_window:g} {unit} for "
+        f"The axis is not still at {_where(s, u)}: {seen} (still = within {tr.stability_window:g} {unit} for "
         f"{tr.dwell_s / 2:g} s). Wait until it is still, capture now (the point is marked not_still in "
         f"points.csv), or abort?", ("wait", "capture", "abort"), default="wait", key="still")
     if answer == "capture":

@@ -315,7 +315,7 @@ def still_before_capture(setup: StraightnessSetup, p: int, k: int, x: float) -> 
         seen = "not at rest"
     where = f"station {k}{' (return)' if p else ''} (x = {x:g} mm)"
     answer = yield Prompt(
-        f"The block is not still at {where} ({seen}; still = within {a.still_um:g} um for {a.still_s:g} s). "
+        f"The block is not still at {where}: {seen} (still = within {a.still_um:g} um for {a.still_s:g} s). "
         f"Wait until it is still, capture now (the point is marked not_still in points.csv), or abort?",
         ("wait", "capture", "abort"), default="wait", key="still")
     if answer == "capture":
