@@ -34,7 +34,7 @@ NAME_WIDTH = 32
 KIND_WIDTH = 12
 STATUS_WIDTH = 11  # "in-progress"
 POINTS_WIDTH = 9  # "1234/2000"
-MACHINE_MIN_WIDTH = 10
+MACHINE_FLOOR = 8  # the least the machine column gets on screen ("Machine 7, bed" over two lines)
 AXIS_MIN_WIDTH, AXIS_MAX_WIDTH = 4, 16  # wide layout: the axis column
 WIDE = 120  # from this many columns on, one line per run
 CREATED_WIDTH = 19
@@ -141,12 +141,13 @@ class RunsScreen(Screen):
         widths = [name_w, *([CREATED_WIDTH, KIND_WIDTH, axis_w] if wide else [KIND_WIDTH]), STATUS_WIDTH,
                   POINTS_WIDTH]
         # the rest of the screen (less a scroll bar and each column's padding of one cell either side); the
-        # name column gives way so that the machine column has at least MACHINE_MIN_WIDTH on the screen (a
-        # long name wraps instead: an 80-column screen never hides the machine beyond its right edge)
+        # name column gives way so that the machine column keeps MACHINE_FLOOR cells on the screen (a long name
+        # wraps instead: an 80-column screen never hides the machine beyond its right edge; the machine wraps)
         spare = width - 2 * (len(widths) + 1) - sum(widths)
-        if spare < MACHINE_MIN_WIDTH:
-            widths[0] = name_w = max(CREATED_WIDTH if not wide else 10, name_w - (MACHINE_MIN_WIDTH - spare))
-        machine_w = max(MACHINE_MIN_WIDTH, width - 2 - 2 * (len(widths) + 1) - sum(widths))
+        if spare < MACHINE_FLOOR:
+            widths[0] = name_w = max(CREATED_WIDTH if not wide else 10, name_w - (MACHINE_FLOOR - spare))
+            spare = width - 2 * (len(widths) + 1) - sum(widths)
+        machine_w = max(MACHINE_FLOOR, min(spare, max(10, spare - 2)))  # a scroll bar's 2 cells when there is room
         labels = ["run", "created (UTC)", "kind", "axis", "status", "points", "machine"] if wide else \
             ["run · created (UTC)", "kind · axis", "status", "points", "machine"]
         for label, w in zip(labels, [*widths, machine_w], strict=True):
