@@ -84,3 +84,49 @@ def test_no_live_view_and_a_block_that_does_not_rest_is_a_question() -> None:
     (q,) = prompts(bench)
     assert "not still at station 3 (x = 300 mm): not at rest" in q.text
     assert [p["not_still"] for p in bench.points] == [0, 0, 0, 1]
+
+
+def test_manual_positioning_target_seen_moving_asks_and_marks_or_waits() -> None:
+    from acquisition.plans.positioning import positioning_plan
+
+    from .plan_driver import drive
+    from .test_positioning_workflow import Machine, psetup
+
+    s = psetup("manual")
+    mach = Machine([], s.targets)
+    placed = iter([0.0, 100.0, 200.0, 200.0, 100.0, 0.0])
+    clock = [0.0]
+    answers = {2: "capture", 3: "wait"}  # target 2 up: capture now; target 3 up: wait until still
+    asked: list[m.Prompt] = []
+    where: list[int] = []
+
+    def respond(msg: Any) -> Any:
+        if isinstance(msg, m.Instruct) and msg.key == "target":
+            mach.at = next(placed)
+            where.append(msg.params["target_index"] * msg.params["direction"])
+        if isinstance(msg, m.Stillness):
+            return "moving" if where[-1] in (2, 3) else "stable"
+        if isinstance(msg, m.Prompt) and msg.key == "still":
+            asked.append(msg)
+            return answers[where[-1]]
+        if isinstance(msg, m.TriggerInterferometer):
+            clock[0] += 0.1
+            return ifm_at(mach.at + mach.offset, clock[0])
+        if isinstance(msg, m.Wait):
+            mach.msgs.append(msg)
+            return msg.seconds
+        return mach(msg)
+
+    drive(positioning_plan(s, {}), respond)
+    rows = [x.data for x in mach.msgs if isinstance(x, m.Record)]
+    assert len(asked) == 2 and "not still at target 2" in asked[0].text
+    assert [(r["target_index"], r["direction"], r["not_still"]) for r in rows] == [
+        (1, 1, 0), (2, 1, 1), (3, 1, 0), (3, -1, 0), (2, -1, 0), (1, -1, 0)]
+    # waited at target 3: polled readings spanning half the dwell (0.5 s at 0.1 s) before the capture
+    assert sum(isinstance(x, m.Wait) for x in mach.msgs) >= 5
+
+
+def ifm_at(position_mm: float, t: float) -> Any:
+    from .test_positioning_workflow import ifm
+
+    return ifm(position_mm, t)
