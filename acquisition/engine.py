@@ -63,6 +63,7 @@ from .messages import (
     Record,
     Requested,
     Retract,
+    Stillness,
     TriggerInterferometer,
     Wait,
     ZeroInterferometer,
@@ -169,6 +170,7 @@ class RunEngine:
             Log: lambda m: self.operator.log(m),
             Progress: lambda m: self._emit("progress", {"uid": self._uid, "key": m.key, "data": dict(m.data)}),
             Requested: self._requested,
+            Stillness: self._stillness,
             CloseRun: self._close_run,
         }
 
@@ -326,6 +328,11 @@ class RunEngine:
             if answer not in msg.choices:
                 raise UserError(f"operator answered {answer!r}; expected one of {', '.join(msg.choices)}")
             return answer
+
+    def _stillness(self, _msg: Stillness) -> str | None:
+        """The operator's judgement of stillness (``Operator.stillness``; None for one that has none)."""
+        judge = getattr(self.operator, "stillness", None)
+        return judge() if judge is not None else None
 
     def _read_sensor(self, msg: ReadSensor) -> Any:
         sensor = self.rig.sensor

@@ -136,6 +136,16 @@ class Requested:
 
 
 @dataclass(frozen=True)
+class Stillness:
+    """How the operator sees the block or axis at the step about to be captured (asked after its
+    ``capture``).  Reply: ``"stable"``, ``"settling"`` or ``"moving"`` as its live view showed it when it
+    answered (the TUI's stability light, :mod:`acquisition.stillness`); ``"look"`` when it has no live
+    view and the plan should look with the interferometer (the plain terminal); None when nobody judges
+    (the simulated technician, whose block is placed exactly and at once): no check.
+    """
+
+
+@dataclass(frozen=True)
 class CloseRun:
     """End the run normally."""
 
@@ -144,7 +154,7 @@ class CloseRun:
 
 Message = (
     OpenRun | Instruct | Prompt | ZeroInterferometer | TriggerInterferometer
-    | ReadSensor | Wait | Annotate | Retract | Record | Log | Progress | Requested | CloseRun
+    | ReadSensor | Wait | Annotate | Retract | Record | Log | Progress | Requested | Stillness | CloseRun
 )
 
 # Messages that talk to a device: a driver error while executing one pauses the run.

@@ -11,6 +11,7 @@ from collections.abc import Callable
 from typing import Protocol, TextIO
 
 from .messages import Instruct, Log, Prompt
+from .stillness import LOOK
 
 
 class Operator(Protocol):
@@ -19,6 +20,8 @@ class Operator(Protocol):
     def prompt(self, msg: Prompt) -> str: ...
 
     def log(self, msg: Log) -> None: ...
+
+    # optional: ``stillness() -> str | None``, the answer to messages.Stillness (none: nobody judges)
 
 
 class AutoOperator:
@@ -105,3 +108,8 @@ class TerminalOperator:
 
     def log(self, msg: Log) -> None:
         print(msg.text, file=self.stdout, flush=True)
+
+    def stillness(self) -> str:
+        """No live view here: the plan looks with the interferometer before a capture (messages.Stillness)
+        and asks when the block does not come to rest."""
+        return LOOK

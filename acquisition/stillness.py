@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 MOVING, SETTLING, STABLE = "moving", "settling", "stable"
+LOOK = "look"  # messages.Stillness: the operator has no live view; the plan looks with the interferometer
 
 
 def straightness_channels(ifm: Any) -> tuple[float, float, float]:

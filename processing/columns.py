@@ -22,10 +22,13 @@ STRAIGHTNESS_POINTS: tuple[str, ...] = (
     "material_temp_c",
 )
 
-# Columns added by run format version 2, with the value a version-1 file implies.
+# Columns added by run format version 2, with the value a file without them implies.
 # ``pass``: 0 forward pass, 1 return pass of a straightness run.
-STRAIGHTNESS_POINTS_V2: tuple[str, ...] = (*STRAIGHTNESS_POINTS, "pass")
-OPTIONAL_DEFAULTS: dict[str, float] = {"pass": 0}
+# ``not_still``: 1 when the operator captured the point although the stability rule
+# (acquisition.stillness) did not find the block / axis still, else 0; every kind, last column;
+# runs written before it existed read as 0 (docs/run-format.md).
+STRAIGHTNESS_POINTS_V2: tuple[str, ...] = (*STRAIGHTNESS_POINTS, "pass", "not_still")
+OPTIONAL_DEFAULTS: dict[str, float] = {"pass": 0, "not_still": 0}
 
 PROFILE: tuple[str, ...] = (
     "station",    # station index
@@ -41,9 +44,9 @@ ERROR_CHANNELS: tuple[str, ...] = ("stry_um", "strz_um", "pitch_urad", "yaw_urad
 # axis uses target_mm/reading_mm, a rotary axis target_deg/reading_deg.
 POSITIONING_LINEAR: tuple[str, ...] = (
     "run", "direction", "target_index", "target_mm", "reading_mm", "time_s",
-    *ERROR_CHANNELS, *ENVIRONMENT,
+    *ERROR_CHANNELS, *ENVIRONMENT, "not_still",
 )
 POSITIONING_ROTARY: tuple[str, ...] = (
     "run", "direction", "target_index", "target_deg", "reading_deg", "time_s",
-    *ERROR_CHANNELS, *ENVIRONMENT,
+    *ERROR_CHANNELS, *ENVIRONMENT, "not_still",
 )

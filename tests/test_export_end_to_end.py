@@ -53,7 +53,7 @@ def write_run(run_dir: Path, targets_mm: list[float] = TARGETS_MM, err_up_um: li
                 off = scatter[i] if isinstance(scatter, list) else scatter
                 reading = TARGETS_MM[i] + (errors[i] + off) / 1000.0
                 rows.append(",".join(str(v) for v in (j, direction, i + 1, TARGETS_MM[i], repr(reading), t,
-                                                      0, 0, 0, 0, 0, 20.0, 1013.25, 50.0, 20.0)))
+                                                      0, 0, 0, 0, 0, 20.0, 1013.25, 50.0, 20.0, 0)))
     (run_dir / "points.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
 
 

@@ -262,7 +262,15 @@ class GuidewayApp(App[None]):
             if choice is not None and session.view.ticket == ticket and session.view.question is prompt:
                 session.answer(choice)
 
-        self.push_screen(question_screen(prompt, session.view.fault_attempts or 1, session.view.fault_since), answered)
+        def push() -> None:
+            if session.view.ticket == ticket and session.view.question is prompt and self.screen_stack:
+                self.push_screen(question_screen(prompt, session.view.fault_attempts or 1, session.view.fault_since),
+                                 answered)
+
+        # after the screen switch an instruction may have started (ConnectScreen -> CaptureScreen) is done: a
+        # question right after it (Space at once, the block not still yet) pushed on top of the switch made a
+        # Header of the screen going away update its title after its children were gone (a NoMatches crash)
+        self.call_after_refresh(push)
 
     # -- quitting -----------------------------------------------------------------------------------
     def action_quit_app(self) -> None:

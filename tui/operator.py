@@ -4,7 +4,8 @@ The engine calls :meth:`TuiOperator.instruct` / :meth:`prompt` in its worker
 thread; they post the question to the UI and block *that* thread until the UI
 calls :meth:`answer` (never the UI thread).  Simulated physical actions
 (``--simulate``): the block is placed when the instruction is shown
-(``EARLY_ACTIONS``), Cycle Start when the operator confirms.
+(``EARLY_ACTIONS``); Cycle Start when the operator presses Space at a manual
+target (:meth:`TuiOperator.act`: the capture then follows when the light settles).
 """
 
 from __future__ import annotations
@@ -32,6 +33,9 @@ class TuiOperator:
         self._answers: queue.Queue[tuple[int, str]] = queue.Queue()
         self._ticket = 0
         self._closed = threading.Event()
+        # the stability light when the UI answered the last instruction (messages.Stillness; None: no light)
+        self.light: str | None = None
+        self._acted = 0  # the instruction whose simulated action the UI already performed (act)
 
     def _ask(self, msg: Instruct | Prompt) -> str:
         if self._closed.is_set():
@@ -63,9 +67,28 @@ class TuiOperator:
         if early:
             action(**msg.params)
         answer = self._ask(msg)
-        if answer == msg.choices[0] and action is not None and not early:
+        if answer == msg.choices[0] and action is not None and not early and self._acted != self._ticket:
             action(**msg.params)
         return answer
+
+    def can_act(self, msg: Instruct) -> bool:
+        """Is there a simulated action for ``msg`` (``--simulate``)?"""
+        return msg.action in self.actions
+
+    def act(self, ticket: int, msg: Instruct) -> bool:
+        """Perform the simulated action of instruction ``ticket`` now, before it is answered (the UI thread:
+        Space at a manual Cycle Start; the capture follows when the light settles); not again on the answer.
+        False when there is none or it was done."""
+        action = self.actions.get(msg.action)
+        if action is None or self._acted == ticket or ticket != self._ticket:
+            return False
+        self._acted = ticket
+        action(**msg.params)
+        return True
+
+    def stillness(self) -> str | None:
+        """The stability light as the screen showed it when the capture was answered (messages.Stillness)."""
+        return self.light
 
     def prompt(self, msg: Prompt) -> str:
         return self._ask(msg)

@@ -172,6 +172,8 @@ class SessionView:
     fault_attempts: int = 0  # device-fault questions in a row (the first failure is attempt 1)
     fault_since: float | None = None  # time.monotonic() of the first of them
     refused: str = ""  # a key refused while the run was busy (shown until the next instruction)
+    # simulated manual trigger: the ticket whose Cycle Start Space pressed; its capture waits for STABLE
+    capture_when_stable: int = 0
 
     @property
     def last_point(self) -> dict[str, Any] | None:
@@ -255,7 +257,27 @@ class RunSession:
         if q is None:
             return
         self.view.question = None
+        # what the light showed as the key was pressed: the plan asks before capturing a point not still
+        self.operator.light = self.view.stability if self.info.setup is not None else None
         self.operator.answer(self.view.ticket, choice)
+
+    def cycle_start(self) -> bool:
+        """Simulated manual trigger: Space is the Cycle Start the technician presses at the machine; the axis
+        goes to the target, and the capture follows when the light turns STABLE there (as a technician waits
+        for the axis to stop before capturing).  False when the instruction is not a simulated Cycle Start."""
+        v = self.view
+        q = v.question
+        if not (isinstance(q, Instruct) and q.action == "cycle_start" and q.key == "target"
+                and self.operator.can_act(q)) or v.capture_when_stable == v.ticket:
+            return False
+        if not self.operator.act(v.ticket, q):
+            return False
+        v.capture_when_stable = v.ticket
+        if self.info.setup is not None:  # the axis has been told to move: the light starts again from MOVING
+            self.live().stability.window.clear()
+            v.stability = self.live().stability.state = "moving"
+        v.log.append(f"Cycle Start (simulated): the axis goes to {self.where()}; capture when it is STABLE")
+        return True
 
     def pause(self) -> None:
         if self.view.question is not None and "pause" in self.view.question.choices:
@@ -274,9 +296,10 @@ class RunSession:
     def _auto_capture(self) -> None:
         v = self.view
         q = v.question
-        if v.auto_capture and v.stability == STABLE and isinstance(q, Instruct) and "capture" in q.choices \
-                and q.key in ("station", "target"):
-            v.log.append(f"auto-capture: {self.where()} stable")
+        armed = v.capture_when_stable == v.ticket and v.ticket > 0
+        if (v.auto_capture or armed) and v.stability == STABLE and isinstance(q, Instruct) \
+                and "capture" in q.choices and q.key in ("station", "target"):
+            v.log.append(f"{'auto-capture' if v.auto_capture else 'capture'}: {self.where()} stable")
             self.answer("capture")
 
     def where(self) -> str:
@@ -356,6 +379,8 @@ class RunSession:
             if doc["state"] == "running":
                 v.fault_since, v.fault_attempts = None, 0
         elif name == "progress" and doc.get("key") == "warmup":
+            if not v.warmup and v.refused.startswith("'o'"):
+                v.refused = ""  # "o before the warm-up" no longer applies once it runs
             v.warmup = dict(doc["data"])
         elif name == "event":
             live = self.live() if self.info.setup is not None else None  # (made before the row is added)

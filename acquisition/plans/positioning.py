@@ -40,20 +40,23 @@ from ..messages import (
     OpenRun,
     Prompt,
     Record,
+    Stillness,
     TriggerInterferometer,
     Wait,
     ZeroInterferometer,
 )
 from ..setup.cycles import Stop
 from ..setup.positioning import PositioningSetup
-from ..stillness import STABLE, StillnessWindow, position_channel
+from ..stillness import LOOK, STABLE, StillnessWindow, position_channel
 from .straightness import ResumePoint
 
 ARROW = {1: "up (+)", -1: "down (-)"}
 
 
-def positioning_row(s: Stop, reading: float, t0: float, ifm: InterferometerReading, unit: str) -> dict[str, Any]:
-    """One row of a positioning run's points.csv (docs/run-format.md)."""
+def positioning_row(s: Stop, reading: float, t0: float, ifm: InterferometerReading, unit: str,
+                    not_still: bool = False) -> dict[str, Any]:
+    """One row of a positioning run's points.csv (docs/run-format.md); ``not_still``: the operator captured
+    it although the axis was not found still (marked 1)."""
     return {
         "run": s.run, "direction": s.direction, "target_index": s.target_index,
         f"target_{unit}": s.position, f"reading_{unit}": reading, "time_s": ifm.timestamp_s - t0,
@@ -61,6 +64,7 @@ def positioning_row(s: Stop, reading: float, t0: float, ifm: InterferometerReadi
         "yaw_urad": ifm.yaw_urad, "roll_urad": ifm.roll_urad,
         "air_temp_c": ifm.air_temp_c, "air_pressure_hpa": ifm.air_pressure_hpa,
         "humidity_pct": ifm.humidity_pct, "material_temp_c": ifm.material_temp_c,
+        "not_still": int(not_still),
     }
 
 
@@ -205,6 +209,51 @@ def _stable_capture(setup: PositioningSetup, i: int, tracker: ApproachTracker
             return None
 
 
+def _rests_near(setup: PositioningSetup, s: Stop, limit_s: float) -> Generator[Message, Any, bool]:
+    """Poll for up to ``limit_s``: True as soon as the axis rests near the target of stop ``s`` (within
+    ``near``, the position within the stability window for half the dwell), False if it does not."""
+    tr = setup.trigger
+    window = StillnessWindow(tr.stability_window, tr.dwell_s / 2)
+    waited = 0.0
+    while True:
+        ifm, pos = yield from _read(setup)
+        if ifm.ok and math.isfinite(pos) and abs(pos - s.position) <= tr.near:
+            if window.add(ifm.timestamp_s, (position_channel(pos, setup.axis_type),)) == STABLE:
+                return True
+        else:
+            window.clear()
+        if waited >= limit_s:
+            return False
+        waited += max((yield Wait(tr.poll_s)), tr.poll_s)
+
+
+def still_before_capture(setup: PositioningSetup, s: Stop) -> Generator[Message, Any, bool]:
+    """Manual trigger, after the operator's ``capture``: is the axis still at the target (the rule of the
+    stability trigger and the TUI's light)?  True if it is (or nobody judges, messages.Stillness), or once
+    it has come to rest when the operator chose to wait; False when the operator captures anyway (the
+    point is marked ``not_still``)."""
+    seen = yield Stillness()
+    if seen is None or seen == STABLE:
+        return True
+    tr, u = setup.trigger, setup.unit
+    if seen == LOOK:
+        if (yield from _rests_near(setup, s, tr.dwell_s / 2 + 2 * tr.poll_s)):
+            return True
+        seen = "not at rest"
+    unit = "arcsec" if setup.axis_type == "rotary" else "um"
+    answer = yield Prompt(
+        f"The axis is not still at {_where(s, u)}: {seen} (still = within {tr.stability_window:g} {unit} for "
+        f"{tr.dwell_s / 2:g} s). Wait until it is still, capture now (the point is marked not_still in "
+        f"points.csv), or abort?", ("wait", "capture", "abort"), default="wait", key="still")
+    if answer == "capture":
+        yield Log(f"{_where(s, u)}: captured while not still ({seen}); marked not_still")
+        return False
+    while not (yield from _rests_near(setup, s, tr.timeout_s)):
+        yield Prompt(f"The axis did not settle near {_where(s, u)} within {tr.timeout_s:g} s. Keep waiting, or "
+                     f"abort.", ("wait", "abort"), key="stability", fault=f"axis not stable near {_where(s, u)}")
+    return True
+
+
 def positioning_plan(setup: PositioningSetup, metadata: dict[str, Any],
                      resume: ResumePoint | None = None) -> Generator[Message, Any, None]:
     """Yield the messages of a complete (or resumed) positioning run."""
@@ -244,6 +293,7 @@ def positioning_plan(setup: PositioningSetup, metadata: dict[str, Any],
     while i < len(stops):
         s = stops[i]
         event = None
+        not_still = False
         if mode == "in-position":
             event = yield WaitInPosition(last_count, tr.timeout_s, armed=armed)
             if event is not None:
@@ -276,6 +326,7 @@ def positioning_plan(setup: PositioningSetup, metadata: dict[str, Any],
                 yield Annotate("skipped", list(skipped))
                 i += 1
                 continue
+            not_still = not (yield from still_before_capture(setup, s))
             ifm, reading = yield from _read(setup)
         else:
             got_stable = yield from _stable_capture(setup, i, tracker)
@@ -305,7 +356,7 @@ def positioning_plan(setup: PositioningSetup, metadata: dict[str, Any],
                             "reason": problem})
             yield Annotate("skipped", list(skipped))
         else:
-            yield Record(positioning_row(s, reading, t0, ifm, u))
+            yield Record(positioning_row(s, reading, t0, ifm, u, not_still))
             yield Annotate("progress", {"index": i, "run": s.run, "direction": s.direction,
                                         "target_index": s.target_index})
             # the raw reading, not a deviation: it still carries the air index and the material

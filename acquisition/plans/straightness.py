@@ -48,21 +48,23 @@ from ..messages import (
     Record,
     Requested,
     Retract,
+    Stillness,
     TriggerInterferometer,
     Wait,
     ZeroInterferometer,
 )
 from ..setup.straightness import StraightnessSetup, WarmupSetup
-from ..stillness import STABLE, StillnessWindow, straightness_channels
+from ..stillness import LOOK, STABLE, StillnessWindow, straightness_channels
 
 Step = tuple[int, int]  # (pass, station)
 
 
 def point_record(
     k: int, x_mm: float, t0: float, ifm: InterferometerReading, sensor: AveragedDisplacement,
-    pass_: int = 0,
+    pass_: int = 0, not_still: bool = False,
 ) -> dict[str, Any]:
-    """One row of points.csv (run format v2) from the two readings; ``pass_`` 0 forward, 1 return."""
+    """One row of points.csv (run format v2) from the two readings; ``pass_`` 0 forward, 1 return;
+    ``not_still``: the operator captured it although the block was not found still (marked 1)."""
     return {
         "station": k,
         "x_mm": x_mm,
@@ -79,6 +81,7 @@ def point_record(
         "humidity_pct": ifm.humidity_pct,
         "material_temp_c": ifm.material_temp_c,
         "pass": pass_,
+        "not_still": int(not_still),
     }
 
 
@@ -272,6 +275,55 @@ def arrival(setup: StraightnessSetup, p: int, k: int, x: float) -> Generator[Mes
             waited, t_first = 0.0, None
 
 
+def _rests_within(setup: StraightnessSetup, x: float, limit_s: float) -> Generator[Message, Any, bool]:
+    """Poll the interferometer for up to ``limit_s``: True as soon as the block rests at x (the rule of
+    :func:`arrival`), False if it does not within the time."""
+    a, v = setup.auto, setup.validation
+    window = StillnessWindow(a.still_um, a.still_s)
+    t_first: float | None = None
+    waited = 0.0
+    while True:
+        ifm = yield TriggerInterferometer()
+        t_first = ifm.timestamp_s if t_first is None else t_first
+        lin_um = (ifm.position_mm - x) * 1000.0
+        if ifm.ok and math.isfinite(lin_um) and abs(lin_um) <= v.max_lin_um:
+            if window.add(ifm.timestamp_s, straightness_channels(ifm)) == STABLE:
+                return True
+        else:
+            window.clear()
+        if max(waited, ifm.timestamp_s - t_first) >= limit_s:
+            return False
+        waited += max((yield Wait(a.poll_s)), a.poll_s)
+
+
+def still_before_capture(setup: StraightnessSetup, p: int, k: int, x: float) -> Generator[Message, Any, str]:
+    """After the operator's ``capture``: is the block still (the rule of the stability light and of
+    ``--auto``, :mod:`acquisition.stillness`)?  ``"still"``; ``"not_still"`` when the operator captures
+    anyway (the point is marked ``not_still``); ``"skip"`` when, waiting for it, the operator skips.
+
+    The operator says what its live view showed (:class:`Stillness`); one without a live view (``look``)
+    has the plan poll the interferometer for the rule's time first; one that does not judge (None) is
+    not asked.  A block not still is a question: wait until it is (then capture), capture now, abort.
+    """
+    seen = yield Stillness()
+    if seen is None or seen == STABLE:
+        return "still"
+    a = setup.auto
+    if seen == LOOK:
+        if (yield from _rests_within(setup, x, a.still_s + 2 * a.poll_s)):
+            return "still"
+        seen = "not at rest"
+    where = f"station {k}{' (return)' if p else ''} (x = {x:g} mm)"
+    answer = yield Prompt(
+        f"The block is not still at {where}: {seen} (still = within {a.still_um:g} um for {a.still_s:g} s). "
+        f"Wait until it is still, capture now (the point is marked not_still in points.csv), or abort?",
+        ("wait", "capture", "abort"), default="wait", key="still")
+    if answer == "capture":
+        yield Log(f"{where}: captured while not still ({seen}); marked not_still")
+        return "not_still"
+    return "still" if (yield from arrival(setup, p, k, x)) else "skip"
+
+
 def _capture(setup: StraightnessSetup, k: int, x: float) -> Generator[Message, Any, tuple | None]:
     """Trigger + averaged sensor reading, validated; None if the operator skips the station."""
     v = setup.validation
@@ -325,6 +377,7 @@ def straightness_plan(setup: StraightnessSetup, metadata: dict[str, Any],
     while i < len(steps):
         p, k = steps[i]
         x = setup.station_x_mm(k)
+        not_still = False
         if (p, k) != (0, 0) and hands_free:
             if not (yield from arrival(setup, p, k, x)):
                 skipped.append({"station": k, "pass": p, "reason": "the block did not arrive; skipped"})
@@ -356,6 +409,14 @@ def straightness_plan(setup: StraightnessSetup, metadata: dict[str, Any],
                 yield Log(f"station {k} (pass {p}) skipped")
                 i += 1
                 continue
+            settled = yield from still_before_capture(setup, p, k, x)
+            if settled == "skip":
+                skipped.append({"station": k, "pass": p, "reason": "the block did not come to rest; skipped"})
+                yield Annotate("skipped", list(skipped))
+                yield Annotate("progress", {"pass": p, "station": k})
+                i += 1
+                continue
+            not_still = settled == "not_still"
         got = yield from _capture(setup, k, x)
         if got is None:
             skipped.append({"station": k, "pass": p, "reason": "capture failed validation; skipped"})
@@ -364,7 +425,7 @@ def straightness_plan(setup: StraightnessSetup, metadata: dict[str, Any],
             i += 1
             continue
         ifm, sensor = got
-        row = point_record(k, x, t0, ifm, sensor, p)
+        row = point_record(k, x, t0, ifm, sensor, p, not_still)
         jump = jump_problem(row, points.get(steps[i - 1]) if i > 0 else None, setup.validation)
         if jump is not None:
             redo_default = jump_redos < setup.validation.capture_attempts
@@ -380,7 +441,7 @@ def straightness_plan(setup: StraightnessSetup, metadata: dict[str, Any],
         points[(p, k)] = row
         yield Annotate("progress", {"pass": p, "station": k})
         yield Log(f"station {k:3d}{' (return)' if p else ''}  x = {x:8.1f} mm  stry = {ifm.stry_um:+8.3f} um  "
-                  f"sensor = {sensor.mean_mm:+.5f} mm")
+                  f"sensor = {sensor.mean_mm:+.5f} mm{'  (not still)' if not_still else ''}")
         i += 1
     n_skip = len(skipped)
     yield CloseRun("all stations captured" + (f" ({n_skip} skipped)" if n_skip else ""))

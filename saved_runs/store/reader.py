@@ -130,9 +130,11 @@ def _read_points(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame, li
     df = pd.DataFrame({c: np.frombuffer(data[c], dtype=float) for c in columns}, columns=list(columns))
     for c, v in defaults.items():
         df[c] = v
-    for col in ("station", "run", "direction", "target_index", "pass"):
+    for col in ("station", "run", "direction", "target_index", "pass", "not_still"):
         if col in df:
             if not all(float(v).is_integer() for v in df[col]):
                 raise RunFormatError(f"{path}: column {col} must hold integers")
             df[col] = df[col].astype(int)
+    if "not_still" in df and not df["not_still"].isin((0, 1)).all():
+        raise RunFormatError(f"{path}: column not_still must be 0 or 1")
     return df, warnings

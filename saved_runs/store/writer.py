@@ -18,6 +18,8 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
+from processing.columns import OPTIONAL_DEFAULTS
+
 from ..errors import FileWriteError, RunFormatError, UnsafeFileError, file_kind
 from .files import fsync_dir, write_json_atomic, write_text_atomic
 from .format import FORMAT, VERSION, format_cell, point_columns, utc_now_iso
@@ -73,11 +75,21 @@ class RunStore:
         store = cls(run.path, {})
         store.meta = dict(run.meta)
         store._columns = point_columns(run.kind, run.meta.get("axis_type"))
-        header = (run.path / "points.csv").read_text(encoding="utf-8").split("\n", 1)[0].split(",")
-        if tuple(h.strip() for h in header) != store._columns:
+        header = tuple(h.strip() for h in
+                       (run.path / "points.csv").read_text(encoding="utf-8").split("\n", 1)[0].split(","))
+        added = [c for c in store._columns if c not in header]
+        if header != store._columns and (tuple(c for c in store._columns if c in header) != header
+                                         or not all(c in OPTIONAL_DEFAULTS for c in added)):
             raise RunFormatError(f"{run.path}: points.csv was written by another format version; "
                                  "it cannot be resumed, start a new run")
-        if run.warnings:  # the incomplete last line: rewrite the file without it
+        if added:  # written before a column existed (not_still): the file gains it with its default
+            lines = _complete_lines(run.path / "points.csv")
+            old = {c: i for i, c in enumerate(header)}
+            rows = [line.split(",") for line in lines[1:]]
+            store._rewrite_points([",".join(store._columns)] + [
+                ",".join(r[old[c]] if c in old else format_cell(OPTIONAL_DEFAULTS[c]) for c in store._columns)
+                for r in rows])
+        elif run.warnings:  # the incomplete last line: rewrite the file without it
             store._rewrite_points(_complete_lines(run.path / "points.csv"))
         store.points_written = len(run.points)
         store.loaded_points = run.points.to_dict("records")
@@ -199,10 +211,12 @@ class RunStore:
     def _write_row(self, data: dict[str, Any]) -> None:
         if self._csv is None:
             raise RuntimeError("event before start")
-        missing = [c for c in self._columns if c not in data]
+        missing = [c for c in self._columns if c not in data and c not in OPTIONAL_DEFAULTS]
         if missing:
             raise ValueError(f"record lacks columns {missing}")
-        self._csv.write(",".join(format_cell(data[c]) for c in self._columns) + "\n")
+        # a column a later format version added (not_still) takes its default when the record has none
+        self._csv.write(",".join(format_cell(data[c] if c in data else OPTIONAL_DEFAULTS[c])
+                                 for c in self._columns) + "\n")
 
     def _stop(self, doc: dict[str, Any]) -> None:
         try:

@@ -57,8 +57,8 @@ def test_plan_message_sequence() -> None:
     assert kinds == [
         "OpenRun", "Instruct", "ZeroInterferometer",
         "TriggerInterferometer", "ReadSensor", "Record",
-        "Instruct", "TriggerInterferometer", "ReadSensor", "Record",
-        "Instruct", "TriggerInterferometer", "ReadSensor", "Record",
+        "Instruct", "Stillness", "TriggerInterferometer", "ReadSensor", "Record",
+        "Instruct", "Stillness", "TriggerInterferometer", "ReadSensor", "Record",
         "CloseRun",
     ]
     instructs = [x for x in msgs if isinstance(x, m.Instruct)]

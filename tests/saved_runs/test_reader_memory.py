@@ -19,6 +19,7 @@ def test_a_50000_point_run_is_read_in_bounded_memory(tmp_path: Path) -> None:
     values = rng.normal(0.0, 100.0, (n, len(cols)))
     values[:, cols.index("station")] = np.arange(n)
     values[:, cols.index("pass")] = 0
+    values[:, cols.index("not_still")] = 0
     lines = [",".join(cols)] + [",".join(repr(float(v)) for v in row) for row in values]
     run = tmp_path / "run"
     run.mkdir()

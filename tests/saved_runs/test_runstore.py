@@ -19,6 +19,7 @@ def point(k: int) -> dict:
     row["station"] = k
     row["x_mm"] = 100.0 * k
     row["pass"] = 0
+    row["not_still"] = k % 2  # a flag: 0 or 1
     row["sensor_mm"] = 0.1 + k / 3  # needs more than 15 digits to round-trip
     return row
 

@@ -34,7 +34,10 @@ def screen_name(app: Any) -> str:
     """The class name of the screen on top; a device-fault dialog counts as the question dialog it is."""
     from tui.screens.dialogs import QuestionScreen
 
-    return "QuestionScreen" if isinstance(app.screen, QuestionScreen) else type(app.screen).__name__
+    screen = app.screen
+    if not screen.is_mounted:  # still being built: a test that ends now would exit in the middle of its mount
+        return "(mounting)"
+    return "QuestionScreen" if isinstance(screen, QuestionScreen) else type(screen).__name__
 
 
 async def press_start(pilot: Any, app: Any) -> None:

@@ -15,13 +15,14 @@ from textual.binding import Binding
 from textual.containers import Horizontal, VerticalScroll
 from textual.markup import escape
 from textual.screen import Screen
-from textual.widgets import Footer, Header, Static
+from textual.widgets import Footer, Static
 from textual.worker import get_current_worker
 
 from saved_runs.errors import EXPECTED_ERRORS
 from saved_runs.evaluation.options import EDITIONS, METHODS
 from saved_runs.export.options import FORMATS, MODEL_NAMES, ExportOptions
 
+from ..widgets.header import RunHeader
 from ..widgets.plot import Plot, PlotData, Series
 
 LINE_NAMES = {"endpoint": "end-point", "least_squares": "least squares", "minimum_zone": "minimum zone"}
@@ -146,6 +147,8 @@ class ResultsScreen(Screen):
                 Binding("3", "export('siemens')", "Siemens table", show=False),
                 Binding("4", "export('csv')", "CSV table", show=False),
                 Binding("d", "diagnose", "diagnose"),
+                Binding("pagedown", "scroll_values(1)", "scroll down", show=False),
+                Binding("pageup", "scroll_values(-1)", "scroll up", show=False),
                 Binding("f3", "app.runs", "runs"), Binding("f2", "app.setup", "set-up")]
 
     def __init__(self, run_dir: Path, note: str = "") -> None:
@@ -166,7 +169,7 @@ class ResultsScreen(Screen):
         self.problem = ""
 
     def compose(self) -> ComposeResult:
-        yield Header()
+        yield RunHeader()
         yield Static(id="run-title")
         with Horizontal(id="verdict"):
             yield Static(id="verdict-word")
@@ -315,12 +318,24 @@ class ResultsScreen(Screen):
         else:
             text = ""
         self.query_one("#options", Static).update(text)
-        status = self.written[-2:]  # the newest two: a status never pushes the results off the screen
+        # the newest file whole (a table with its residual) first, the earlier ones named on one line after it:
+        # the status never pushes the newest residual, nor the title, off the screen (#written's max-height)
+        status = self.written[-1:]
         if self.evaluating and self.evaluation is not None:
             status = [*status, f"[yellow]evaluating ({escape(self._options_text())})…[/yellow]"]
+        if len(self.written) > 1:
+            earlier = ", ".join(w.split("\n", 1)[0].removeprefix("written: ") for w in reversed(self.written[:-1]))
+            status.append(f"[dim]earlier: {earlier}[/dim]")
         written = self.query_one("#written", Static)
         written.update("\n".join(status))
         written.display = bool(status)
+
+    def action_scroll_values(self, pages: int) -> None:
+        """PageDown / PageUp: the values that do not fit (80x24: the ISO table and the options under the plot)."""
+        for selector in ("#results-main", "#results-side"):  # narrow: the column scrolls; wide: the values
+            box = self.query_one(selector)
+            if box.max_scroll_y > 0:
+                (box.scroll_page_down if pages > 0 else box.scroll_page_up)(animate=False)
 
     def _options_text(self) -> str:
         return ", ".join(f"{k} {'default' if v is None else v}" for k, v in self.options().items())

@@ -15,11 +15,12 @@ from textual.binding import Binding
 from textual.containers import Container, Horizontal, Vertical
 from textual.markup import escape
 from textual.screen import Screen
-from textual.widgets import Digits, Footer, Header, ProgressBar, Sparkline, Static
+from textual.widgets import Digits, Footer, ProgressBar, Sparkline, Static
 
 from acquisition.messages import Instruct
 
 from ..session import RunSession
+from ..widgets.header import RunHeader
 from ..widgets.plot import Plot, PlotData, Series
 from ..widgets.readout import bar, readout_text
 
@@ -98,6 +99,10 @@ class RunScreen(Screen):
         return "the devices are being read"
 
     def action_confirm(self) -> None:
+        if self.session.cycle_start():  # simulated manual trigger: Space is Cycle Start, the capture follows
+            self.notify("Cycle Start (simulated): the capture follows when the light is STABLE")
+            self.refresh_view()
+            return
         q = self.instruction
         if q is None:
             self.refuse("capture" if isinstance(self, CaptureScreen) else "done")
@@ -168,11 +173,14 @@ class RunScreen(Screen):
         """What the warm-up waits for, where it is, and the override key."""
         w = self.session.view.warmup
         nan = math.nan
+        ifm, sensor = w.get("drift_ifm_um", nan), w.get("drift_sensor_um", nan)
+        # a drift needs two readings: before them there is no number to show (never "nan")
+        now = (f"now {ifm:.2f} / {sensor:.2f} um" if math.isfinite(ifm) and math.isfinite(sensor)
+               else "now — (waiting for the first readings)")
         return (f"[b]Warm-up:[/b] waiting until the drift (peak to peak over the last {w.get('window')} readings) "
                 f"is below {w.get('max_drift_ifm_um', nan):g} um (interferometer straightness) and "
-                f"{w.get('max_drift_sensor_um', nan):g} um (sensor); now {w.get('drift_ifm_um', nan):.2f} / "
-                f"{w.get('drift_sensor_um', nan):.2f} um.\n[b]o[/b] override now (recorded in the run)   "
-                f"[b]a[/b] abort")
+                f"{w.get('max_drift_sensor_um', nan):g} um (sensor); {now}.\n[b]o[/b] override now (recorded "
+                f"in the run)   [b]a[/b] abort")
 
     def log_text(self, lines: int) -> str:
         return "\n".join(escape(line) for line in list(self.session.view.log)[-lines:])
@@ -207,7 +215,7 @@ class ConnectScreen(RunScreen):
                 Binding("a", "abort", "abort")]
 
     def compose(self) -> ComposeResult:
-        yield Header()
+        yield RunHeader()
         yield Static(id="state")
         yield Static(id="instruction", classes="instruction")
         yield Static(id="readout")
@@ -222,9 +230,19 @@ class ConnectScreen(RunScreen):
         return super().check_action(action, parameters)
 
     def action_override(self) -> None:
-        if self.session.info.warmup:
-            self.session.override()
-            self.notify("warm-up override requested (recorded in the run)")
+        if not self.session.info.warmup:
+            return
+        v = self.session.view
+        if v.warmup.get("state") != "drifting":
+            # a request now would wait for the warm-up and end it at its first reading, unseen: refused, said
+            why = ("the warm-up has not started yet (it starts when the datum instruction is done)"
+                   if not v.warmup else "the warm-up is over")
+            v.refused = f"'o' not taken: {why}; press o while the warm-up runs"
+            self.notify(v.refused, severity="warning", timeout=4)
+            self.refresh_view()
+            return
+        self.session.override()
+        self.notify("warm-up override requested (recorded in the run)")
 
     def state_key(self) -> str:
         v = self.session.view
@@ -324,7 +342,7 @@ class CaptureScreen(RunScreen):
                 Binding("p", "pause", "pause"), Binding("a", "abort", "abort")]
 
     def compose(self) -> ComposeResult:
-        yield Header()
+        yield RunHeader()
         with Horizontal(id="step-row"):
             yield Static(id="step")
             yield ProgressBar(total=max(1, self.session.info.total_steps), show_eta=False, id="progress")
@@ -346,6 +364,17 @@ class CaptureScreen(RunScreen):
             setup = self.session.info.setup
             return setup is not None and (self.session.info.kind == "straightness" or setup.trigger.mode == "manual")
         return super().check_action(action, parameters)
+
+    def instruction_text(self) -> str:
+        text = super().instruction_text()
+        v, q = self.session.view, self.instruction
+        if q is None or q.action != "cycle_start" or q.key != "target" or not self.session.operator.can_act(q):
+            return text
+        if v.capture_when_stable == v.ticket:
+            return (f"{escape(q.text)}\n[b]Cycle Start pressed[/b] (simulated): the capture follows when the light "
+                    f"is STABLE   [b]Space[/b] capture now   [b]s[/b] skip   [b]a[/b] abort")
+        return (f"{escape(q.text)}\n[b]Space[/b] Cycle Start (simulated; the capture follows when the light is "
+                f"STABLE)   [b]s[/b] skip   [b]p[/b] pause   [b]a[/b] abort")
 
     def action_auto(self) -> None:
         on = self.session.toggle_auto_capture()

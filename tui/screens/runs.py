@@ -34,9 +34,22 @@ NAME_WIDTH = 32
 KIND_WIDTH = 12
 STATUS_WIDTH = 11  # "in-progress"
 POINTS_WIDTH = 9  # "1234/2000"
-MACHINE_MIN_WIDTH = 10
+MACHINE_FLOOR = 8  # the least the machine column gets on screen ("Machine 7, bed" over two lines)
+AXIS_MIN_WIDTH, AXIS_MAX_WIDTH = 4, 16  # wide layout: the axis column
 WIDE = 120  # from this many columns on, one line per run
 CREATED_WIDTH = 19
+
+
+def wrap(text: str, width: int) -> list[str]:
+    """``text`` over lines of at most ``width`` cells, whole (a word longer than the line is split)."""
+    import textwrap
+
+    return textwrap.wrap(text, max(1, width), break_on_hyphens=False) or [""]
+
+
+def is_empty(r: RunSummary) -> bool:
+    """A run that ended (or was left) before its first point: F5, then q before any capture."""
+    return not r.problem and r.status != "complete" and r.points == 0
 
 
 class RunsScreen(Screen):
@@ -124,26 +137,47 @@ class RunsScreen(Screen):
         wide = width >= WIDE
         names = [r.path.name for r in self.runs]
         name_w = min(max([10 if wide else CREATED_WIDTH, *map(len, names)]), NAME_WIDTH)
-        widths = [name_w, *([CREATED_WIDTH] if wide else []), KIND_WIDTH, STATUS_WIDTH, POINTS_WIDTH]
-        # the rest of the screen (less a scroll bar and each column's padding of one cell either side)
-        machine_w = max(MACHINE_MIN_WIDTH, width - 2 - 2 * (len(widths) + 1) - sum(widths))
-        labels = ["run", "created (UTC)", "kind · axis", "status", "points", "machine"] if wide else \
+        # wide: the axis has a column of its own, as wide as the longest axis name up to AXIS_MAX_WIDTH (a longer
+        # one wraps); narrow: it stands under the kind
+        axis_w = min(max([AXIS_MIN_WIDTH, *(len(r.axis) for r in self.runs)]), AXIS_MAX_WIDTH)
+        widths = [name_w, *([CREATED_WIDTH, KIND_WIDTH, axis_w] if wide else [KIND_WIDTH]), STATUS_WIDTH,
+                  POINTS_WIDTH]
+        # the rest of the screen (less a scroll bar and each column's padding of one cell either side); the
+        # name column gives way so that the machine column keeps MACHINE_FLOOR cells on the screen (a long name
+        # wraps instead: an 80-column screen never hides the machine beyond its right edge; the machine wraps)
+        spare = width - 2 * (len(widths) + 1) - sum(widths)
+        if spare < MACHINE_FLOOR:
+            widths[0] = name_w = max(CREATED_WIDTH if not wide else 10, name_w - (MACHINE_FLOOR - spare))
+            spare = width - 2 * (len(widths) + 1) - sum(widths)
+        machine_w = max(MACHINE_FLOOR, min(spare, max(10, spare - 2)))  # a scroll bar's 2 cells when there is room
+        labels = ["run", "created (UTC)", "kind", "axis", "status", "points", "machine"] if wide else \
             ["run · created (UTC)", "kind · axis", "status", "points", "machine"]
         for label, w in zip(labels, [*widths, machine_w], strict=True):
             table.add_column(label, width=w)
         for r in self.runs:
             # as they are (a str cell would be read as markup), cut to the column; a marked run starts with *
-            name = ("* " if r.path in self.marked else "") + r.path.name
+            name_lines = wrap(("* " if r.path in self.marked else "") + r.path.name, name_w)
             created = r.created.replace("T", " ").removesuffix("Z")
-            status = Text(r.status or "?", style="bold" if r.status == DAMAGED else "")
+            empty = is_empty(r)
+            # an empty run (started, then quit before its first point: F5 then q) is marked, and dim
+            style = "dim" if empty else ""
+            status = Text("empty" if empty else r.status or "?", style="bold" if r.status == DAMAGED else style)
             # the catalogue keeps no point count: the folder's browser counts them on disk
-            points = Text("-" if self.from_catalog else r.points_text, justify="right")
+            points = Text("-" if self.from_catalog else r.points_text, justify="right", style=style)
+            # machine and axis whole, never cut at the column: wrapped over as many lines as they need
+            machine = wrap(r.machine, machine_w)
             if wide:
-                table.add_row(Text(name[:name_w]), Text(created), Text(f"{r.kind or '?'} · {r.axis or '-'}"),
-                              status, points, Text(r.machine))
+                axis = wrap(r.axis or "-", axis_w)
+                table.add_row(Text("\n".join(name_lines), style=style), Text(created, style=style),
+                              Text(r.kind or "?", style=style), Text("\n".join(axis), style=style), status, points,
+                              Text("\n".join(machine), style=style),
+                              height=max(len(name_lines), len(axis), len(machine)))
             else:
-                table.add_row(Text(f"{name[:name_w]}\n{created}"), Text(f"{r.kind or '?'}\n{r.axis or '-'}"),
-                              status, points, Text(r.machine), height=2)
+                axis = wrap(r.axis or "-", KIND_WIDTH)
+                table.add_row(Text("\n".join([*name_lines, created]), style=style),
+                              Text("\n".join([r.kind or "?", *axis]), style=style), status, points,
+                              Text("\n".join(machine), style=style),
+                              height=max(1 + len(name_lines), 1 + len(axis), len(machine)))
         self.query_one("#runs-title", Static).update(self.title_text())
         if keep is not None:
             table.move_cursor(row=next((i for i, r in enumerate(self.runs) if r.path == keep.path), 0))
@@ -255,6 +289,9 @@ class RunsScreen(Screen):
             planned = f" of {r.planned} planned" if r.planned else ""
             what = "c continues it" if r.resumable else "Enter opens its results"
             text = f"{escape(r.path.name)}: {escape(r.status)}, {r.points} points on disk{planned}; {what}"
+            if is_empty(r):
+                text = (f"{escape(r.path.name)}: empty ({escape(r.status)} before its first point); c continues "
+                        f"it, or delete its folder")
         self.query_one("#run-detail", Static).update(text)
 
     def on_data_table_row_highlighted(self, event: DataTable.RowHighlighted) -> None:
