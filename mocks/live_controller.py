@@ -71,6 +71,7 @@ class LiveOffsetController:
         self._published: dict[int, float] = {}  # sample -> time it was published
         self.lags_s: collections.deque[float] = collections.deque(maxlen=100_000)  # publish -> echo written
         self.writes = 0
+        self._steady = False  # the last two answers were to the same sample with the same offset
 
     # -- the controller's rules ------------------------------------------------------------------
     @property
@@ -110,11 +111,14 @@ class LiveOffsetController:
 
     def move_to(self, commanded: float) -> float:
         """Compensation stage of the simulated axis: publish ``commanded``, wait (at most ``settle_s``)
-        until the compensator answered this sample, return the offset added to the command (mm or deg)."""
+        until the compensator answered this sample with a settled offset (two answers alike: a jump
+        limit may ramp it over several cycles, as it would while a real axis travels), return the offset
+        added to the command (mm or deg)."""
         sample = self.publish(commanded)
         deadline = self._clock() + self.settle_s
         with self._cond:
-            while self._regs[ECHO] != sample and not self._stale:
+            self._steady = False
+            while not (self._regs[ECHO] == sample and self._steady) and not self._stale:
                 left = deadline - self._clock()
                 if left <= 0:
                     break
@@ -125,6 +129,7 @@ class LiveOffsetController:
     def _write(self, address: int, values: list[int]) -> None:
         now = self._clock()
         with self._cond:
+            before = (self._regs[ECHO], self._regs[OFFSET], self._regs[OFFSET + 1])
             for i, v in enumerate(values):
                 reg = address + i
                 if reg == HEARTBEAT and v != self._regs[HEARTBEAT]:
@@ -134,6 +139,7 @@ class LiveOffsetController:
                     self._hb_at = now
                 self._regs[reg] = int(v)
             if address <= ECHO < address + len(values):
+                self._steady = before == (self._regs[ECHO], self._regs[OFFSET], self._regs[OFFSET + 1])
                 self.writes += 1
                 t = self._published.pop(self._regs[ECHO], None)
                 if t is not None:
