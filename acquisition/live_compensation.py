@@ -179,7 +179,7 @@ class LiveCompensator:
         state = self.client.read_state()
         if state.enable != 1:
             return False
-        target = -self.predictor.error(state.position, state.direction)
+        target = 0.0 - self.predictor.error(state.position, state.direction)  # never -0.0
         self.offset = self._limit(target, state.position, state.direction)
         self.heartbeat = (self.heartbeat + 1) & 0xFFFF
         self.client.write_cycle(self.heartbeat, state.sample, self.offset)

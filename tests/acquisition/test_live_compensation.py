@@ -1,0 +1,229 @@
+"""The live compensator (acquisition/live_compensation.py) against the simulated controller over real
+loopback Modbus TCP: the offset is the opposite of the model's prediction (computed here with scipy and
+numpy on their own), the jump limit, the off switch, stop, and a lost connection (in-process and through
+the command line, with its exit code)."""
+
+from __future__ import annotations
+
+import io
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pymodbus.client import ModbusTcpClient
+from scipy.interpolate import CubicSpline
+
+from acquisition.live_compensation import LiveCompensator, LiveLinkLost, predictor_from_means, start_in_thread
+from mocks.live_controller import LiveOffsetController, start_live_controller
+
+ROOT = Path(__file__).resolve().parents[2]
+X = np.array([0.0, 40.0, 90.0, 130.0, 200.0, 260.0, 300.0, 360.0])
+UP = 8.0 * np.sin(np.radians(X)) + 2.0
+DOWN = -6.0 * np.sin(np.radians(X)) + 1.0
+
+
+@pytest.fixture
+def controller() -> Iterator[tuple[LiveOffsetController, object]]:
+    ctl = LiveOffsetController(rotary=True, timeout_ms=300)
+    srv = start_live_controller(ctl)
+    yield ctl, srv
+    srv.stop()
+
+
+def test_offset_is_the_opposite_of_the_prediction(controller) -> None:  # noqa: ANN001
+    ctl, srv = controller
+    # tolerance 0: the adaptive spline ends with every point a knot = the natural spline through all points
+    pred = predictor_from_means("spline", X, UP, DOWN, rotary=True, tolerance=0.0)
+    comp = LiveCompensator(pred, srv.url, cycle_ms=2, max_jump=1000)
+    thread, out = start_in_thread(comp)
+    try:
+        up, down = CubicSpline(X, UP, bc_type="natural"), CubicSpline(X, DOWN, bc_type="natural")
+        for target, expected in ((75.0, -up(75.0)), (215.0, -up(215.0)), (120.0, -down(120.0)),
+                                 (120.0, -down(120.0)), (400.0, -up(360.0))):  # moving +: held beyond the range
+            got_deg = ctl.move_to(target)
+            assert got_deg * 3600.0 == pytest.approx(expected, abs=1e-4), target  # FLOAT32 on the wire
+        assert ctl.lags_s and max(ctl.lags_s) < 1.0
+    finally:
+        comp.stop()
+        thread.join(5)
+    assert out["stats"].reason == "stopped"
+    assert ctl.applied() == 0.0 and not ctl.enabled  # offset 0 and enable 0 written on the way out
+
+
+def test_linear_and_table_models() -> None:
+    lin = predictor_from_means("linear", X, UP, DOWN, rotary=True)
+    table = predictor_from_means("bidirectional-table", X, UP, DOWN, rotary=True)
+    assert lin.error(65.0, 1) == pytest.approx(np.interp(65.0, X, UP))
+    grid = np.linspace(0.0, 360.0, len(X))  # 8 equidistant points
+    assert table.error(65.0, -1) == pytest.approx(np.interp(65.0, grid, np.interp(grid, X, DOWN)))
+    assert table.error(65.0, -1) != pytest.approx(np.interp(65.0, X, DOWN))
+    assert lin.error(65.0, 0) == 0.0  # before the first motion
+
+
+def test_jump_limit_clamps_and_logs(controller) -> None:  # noqa: ANN001
+    ctl, srv = controller
+    pred = predictor_from_means("linear", X, UP, DOWN, rotary=True)
+    log = io.StringIO()
+    comp = LiveCompensator(pred, srv.url, cycle_ms=2, max_jump=1.0, stream=log)
+    thread, _ = start_in_thread(comp)
+    seen: list[float] = []
+    try:
+        target = -float(np.interp(90.0, X, UP))  # -10 arcsec from 0: ten steps of at most 1
+        sample = ctl.publish(90.0)
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline and (not seen or abs(seen[-1] - target) > 1e-4):
+            if ctl._regs[10] == sample:
+                value = ctl.applied()
+                if not seen or value != seen[-1]:
+                    seen.append(value)
+            time.sleep(0.0005)
+    finally:
+        comp.stop()
+        thread.join(5)
+    assert seen[-1] == pytest.approx(target, abs=1e-4)
+    assert np.all(np.abs(np.diff([0.0, *seen])) <= 1.0 + 1e-5), seen
+    assert comp.stats.jumps_clamped >= 9
+    assert "jump: offset +0.000 -> -10.000 arcsec at 90.0000 deg (+): clamped to -1.000" in log.getvalue()
+
+
+def test_off_switch_at_the_controller_ends_the_loop_with_offset_zero(controller) -> None:  # noqa: ANN001
+    ctl, srv = controller
+    comp = LiveCompensator(predictor_from_means("linear", X, UP, DOWN, rotary=True), srv.url, cycle_ms=2,
+                           max_jump=1000)
+    thread, out = start_in_thread(comp)
+    ctl.move_to(90.0)
+    assert ctl.applied() != 0.0
+    client = ModbusTcpClient("127.0.0.1", port=srv.port, timeout=2)
+    client.connect()
+    client.write_register(8, 0, device_id=1)  # the operator's off switch
+    client.close()
+    thread.join(5)
+    assert not thread.is_alive()
+    assert out["stats"].reason.startswith("switched off")
+    assert ctl.applied() == 0.0
+    assert ctl._regs[12:14] == [0, 0]  # the compensator wrote offset 0 too
+
+
+def test_lost_connection_ends_the_loop_and_the_controller_drops_the_offset(controller) -> None:  # noqa: ANN001
+    ctl, srv = controller
+    comp = LiveCompensator(predictor_from_means("linear", X, UP, DOWN, rotary=True), srv.url, cycle_ms=2,
+                           max_jump=1000, timeout_s=0.3)
+    thread, out = start_in_thread(comp)
+    ctl.move_to(90.0)
+    assert ctl.applied() == pytest.approx(-float(np.interp(90.0, X, UP)), abs=1e-4)
+    srv.stop()  # the link goes down
+    thread.join(5)
+    assert not thread.is_alive()
+    assert isinstance(out["error"], LiveLinkLost)
+    assert "lost" in str(out["error"]) and "heartbeat timeout (300 ms)" in str(out["error"])
+    # the controller side: the offset is still applied until T has passed without a heartbeat, then 0
+    time.sleep(0.35)
+    assert ctl.applied() == 0.0 and ctl.stale
+
+
+SERVER = """
+import sys, time
+from mocks.live_controller import LiveOffsetController, start_live_controller
+ctl = LiveOffsetController(rotary=True, timeout_ms=300)
+srv = start_live_controller(ctl)
+print(srv.port, flush=True)
+while True:
+    ctl.publish(45.0 if int(time.monotonic() * 10) % 2 else 135.0)
+    time.sleep(0.01)
+"""
+
+
+@pytest.fixture(scope="module")
+def as_found(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    run = tmp_path_factory.mktemp("live") / "found"
+    res = subprocess.run([sys.executable, "-m", "tui.cli", "acquire", "positioning", "--setup",
+                          str(ROOT / "tests" / "data" / "seed003" / "rotary-found.toml"), "--out", str(run),
+                          "--simulate", "--auto"], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    return run
+
+
+def _server() -> tuple[subprocess.Popen, int]:
+    proc = subprocess.Popen([sys.executable, "-c", SERVER], cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    assert proc.stdout is not None
+    return proc, int(proc.stdout.readline())
+
+
+def _compensate(run: Path, port: int) -> subprocess.Popen:
+    proc = subprocess.Popen([sys.executable, "-m", "tui.cli", "compensate", "live", str(run), "--controller",
+                             f"modbus-tcp://127.0.0.1:{port}", "--cycle-ms", "4"], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert proc.stdout is not None
+    assert proc.stdout.readline().startswith("live compensation: spline model of")
+    return proc
+
+
+def _end(*procs: subprocess.Popen) -> None:
+    for p in procs:
+        if p.poll() is None:
+            p.kill()
+        p.communicate(timeout=10)  # and close its pipes
+
+
+def _registers(port: int) -> list[int]:
+    client = ModbusTcpClient("127.0.0.1", port=port, timeout=2)
+    assert client.connect()
+    regs = list(client.read_holding_registers(0, count=17, device_id=1).registers)
+    client.close()
+    return regs
+
+
+def test_cli_exits_3_with_one_line_when_the_server_dies(as_found: Path) -> None:
+    server, port = _server()
+    comp = _compensate(as_found, port)
+    try:
+        time.sleep(0.5)
+        assert _registers(port)[9] > 10  # it is cycling: the heartbeat moved
+        server.kill()  # the controller dies mid-run
+        server.communicate(timeout=5)
+        _, err = comp.communicate(timeout=15)
+    finally:
+        _end(server, comp)
+    assert comp.returncode == 3, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("guideway: error: connection to the live-compensation controller")
+    assert "Traceback" not in err
+
+
+def test_cli_ctrl_c_writes_offset_zero_before_exit(as_found: Path) -> None:
+    server, port = _server()
+    comp = _compensate(as_found, port)
+    try:
+        time.sleep(0.5)
+        before = _registers(port)
+        assert before[8] == 1 and before[12:14] != [0, 0]  # enabled, a non-zero offset
+        os.kill(comp.pid, signal.SIGINT)
+        _, err = comp.communicate(timeout=15)
+        after = _registers(port)
+    finally:
+        _end(server, comp)
+    assert comp.returncode == 130, err
+    assert "offset 0 written" in err
+    assert after[8] == 0 and after[12:14] == [0, 0] and after[11] == 0
+
+
+def test_cli_usage_errors_are_one_line(as_found: Path, tmp_path: Path) -> None:
+    def guideway(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "tui.cli", *args], cwd=ROOT, capture_output=True, text=True,
+                              timeout=60)
+
+    res = guideway("compensate", "live", str(as_found), "--controller", "http://x")
+    assert res.returncode == 2 and res.stderr.count("\n") == 1 and "modbus-tcp://" in res.stderr
+    res = guideway("compensate", "live", str(tmp_path / "nope"), "--controller", "modbus-tcp://127.0.0.1:1")
+    assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stderr
+    res = guideway("compensate", "live", str(as_found), "--controller", "modbus-tcp://127.0.0.1:1", "--cycle-ms", "0")
+    assert res.returncode == 2 and "--cycle-ms" in res.stderr
+    # nobody listening: the controller cannot be reached (exit 3, one line)
+    res = guideway("compensate", "live", str(as_found), "--controller", "modbus-tcp://127.0.0.1:1")
+    assert res.returncode == 3 and res.stderr.count("\n") == 1, res.stderr
