@@ -6,6 +6,7 @@ the command line, with its exit code)."""
 from __future__ import annotations
 
 import io
+import json
 import os
 import signal
 import subprocess
@@ -227,3 +228,39 @@ def test_cli_usage_errors_are_one_line(as_found: Path, tmp_path: Path) -> None:
     # nobody listening: the controller cannot be reached (exit 3, one line)
     res = guideway("compensate", "live", str(as_found), "--controller", "modbus-tcp://127.0.0.1:1")
     assert res.returncode == 3 and res.stderr.count("\n") == 1, res.stderr
+
+
+def test_acquire_live_compensation_refusals(as_found: Path, tmp_path: Path) -> None:
+    def acquire(*args: object) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "tui.cli", "acquire", *map(str, args)], cwd=ROOT,
+                              capture_output=True, text=True, timeout=120)
+
+    rotary = ROOT / "tests" / "data" / "seed003" / "rotary-left.toml"
+    linear = ROOT / "docs" / "setup-positioning.toml"
+    cases = [
+        (("positioning", "--setup", rotary, "--out", tmp_path / "a", "--auto", "--live-compensation", as_found),
+         "--live-compensation needs --simulate"),
+        (("positioning", "--setup", linear, "--out", tmp_path / "b", "--simulate", "--auto", "--live-compensation",
+          as_found), "is a rotary axis's run, this set-up's axis is linear"),
+        (("positioning", "--setup", rotary, "--out", tmp_path / "c", "--simulate", "--auto", "--live-model",
+          "linear"), "--live-model needs --live-compensation"),
+        (("straightness", "--setup", ROOT / "docs" / "setup-straightness.toml", "--out", tmp_path / "d",
+          "--simulate", "--auto", "--live-compensation", as_found), "--live-compensation is for positioning runs"),
+    ]
+    for args, fragment in cases:
+        res = acquire(*args)
+        assert res.returncode == 2, (args, res.stderr)
+        assert res.stderr.count("\n") == 1 and fragment in res.stderr, res.stderr
+        assert not Path(str(args[4])).exists()
+    # an "as-found" run measured with compensation active is not the axis's own error
+    compensated = tmp_path / "compensated"
+    compensated.mkdir()
+    for name in ("points.csv", "events.jsonl"):
+        if (as_found / name).exists():
+            (compensated / name).write_bytes((as_found / name).read_bytes())
+    meta = json.loads((as_found / "run.json").read_text())
+    meta["compensation"] = {"active": True, "format": "live", "file": "live spline"}
+    (compensated / "run.json").write_text(json.dumps(meta))
+    res = acquire("positioning", "--setup", rotary, "--out", tmp_path / "e", "--simulate", "--auto",
+                  "--live-compensation", compensated)
+    assert res.returncode == 2 and "measured with compensation active" in res.stderr, res.stderr
