@@ -4,7 +4,10 @@ docs/compensation.md, "Live compensation").
     guideway compensate live RUN --controller URL [--model spline|linear|polynomial|bidirectional-table]
         [--cycle-ms 8] [--max-jump-um 5] [--word-order ABCD|CDAB] [--cycles N] [--quiet]
 
-Exit codes: 0 switched off at the controller or ``--cycles`` done, 130 Ctrl+C (offset 0 written first),
+    guideway compensate linuxcnc-config --axis C --server IP[:PORT] [--device-id N] [--timeout-ms 500]
+        [--av-ratio 0.1] --out DIR
+
+Exit codes (live): 0 switched off at the controller or ``--cycles`` done, 130 Ctrl+C (offset 0 written first),
 3 connection lost (the controller drops the offset after its heartbeat timeout), 2 usage / data errors.
 """
 
@@ -45,6 +48,27 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def linuxcnc_config(args: argparse.Namespace) -> int:
+    from acquisition.live_linuxcnc import LinuxCncLive, hal_lines, ini_lines, mb2hal_ini
+    from saved_runs.errors import UserError
+
+    ip, _, port = args.server.partition(":")
+    try:
+        cfg = LinuxCncLive(axis=args.axis, rotary=args.axis.upper() in "ABC", server_ip=ip,
+                           server_port=int(port) if port else 502, device_id=args.device_id,
+                           timeout_ms=args.timeout_ms, av_ratio=args.av_ratio)
+    except ValueError as exc:
+        raise UserError(f"linuxcnc-config: {exc}") from None
+    args.out.mkdir(parents=True, exist_ok=True)
+    for name, text in ((cfg.mb2hal_file, mb2hal_ini(cfg)), (cfg.hal_file, hal_lines(cfg)),
+                       ("guideway-live.ini", ini_lines(cfg))):
+        (args.out / name).write_text(text, encoding="utf-8")
+        print(f"wrote {args.out / name}")
+    print("add the lines of guideway-live.ini to the machine's INI file; copy the other two next to it "
+          "(docs/compensation.md, LinuxCNC)")
+    return 0
+
+
 def _positive(text: str) -> float:
     try:
         value = float(text)
@@ -79,3 +103,14 @@ def register(sub) -> None:  # noqa: ANN001
     live.add_argument("--cycles", type=_cycles, default=None, help="stop after N cycles (default: run until stopped)")
     live.add_argument("--quiet", action="store_true", help="no progress lines (errors still go to stderr)")
     live.set_defaults(func=run)
+    lc = csub.add_parser("linuxcnc-config", help="write the LinuxCNC INI, HAL and mb2hal files for live compensation "
+                         "through external axis offsets")
+    lc.add_argument("--axis", required=True, help="the axis letter (X Y Z A B C U V W; A B C are rotary)")
+    lc.add_argument("--server", required=True, metavar="IP[:PORT]",
+                    help="the Modbus TCP server holding the live-compensation registers (port 502 by default)")
+    lc.add_argument("--device-id", type=int, default=1, help="its Modbus unit id (default 1)")
+    lc.add_argument("--timeout-ms", type=int, default=500, help="stale-heartbeat time T in ms (default 500)")
+    lc.add_argument("--av-ratio", type=float, default=0.1,
+                    help="[AXIS_L] OFFSET_AV_RATIO: velocity/acceleration share of the offset (default 0.1)")
+    lc.add_argument("--out", type=Path, required=True, help="folder for the three files")
+    lc.set_defaults(func=linuxcnc_config)
