@@ -68,6 +68,8 @@ def test_the_spline_cuts_the_rotary_error_by_about_94_percent(tmp_path: Path) ->
     meta = json.loads((left / "run.json").read_text())
     assert meta["compensation"]["format"] == "live" and meta["compensation"]["model"] == "spline"
     assert meta["live_compensation"]["cycles"] > 0 and "error" not in meta["live_compensation"]
+    res = guideway("export", left, "--format", "linuxcnc", "--out", tmp_path / "x.comp")
+    assert res.returncode == 2 and "measured with live compensation active" in res.stderr  # no table to add to
 
     m_found = directional_means(found)
     x = np.array(sorted({t for t, _ in m_found.index}))
