@@ -495,7 +495,7 @@ def run_positioning(
             if sim is not None:
                 _report_faults(store, sim.faults, stream)
             if predictor is not None:
-                _finish_live(store, *live_run, stream)
+                _finish_live(store, *live_run, stream, sim.live_controller if sim is not None else None)
         finally:
             rig.close()
     finally:
@@ -547,13 +547,19 @@ def _start_live(predictor: Any, url: str, stream: TextIO, cleanup: ExitStack) ->
     return comp, thread, out
 
 
-def _finish_live(store: RunStore, comp: Any, thread: Any, out: dict[str, Any], stream: TextIO) -> None:
-    """Stop the compensator and keep what it did in run.json ``live_compensation``."""
+def _finish_live(store: RunStore, comp: Any, thread: Any, out: dict[str, Any], stream: TextIO,
+                 controller: Any = None) -> None:
+    """Stop the compensator and keep what it did in run.json ``live_compensation`` (with the lag of the
+    offset behind each move the simulated controller measured, ms)."""
     comp.stop()
     thread.join(timeout=5)
     stats = comp.stats
-    record = {"model": comp.predictor.model, "cycles": stats.cycles, "overruns": stats.overruns,
-              "jumps_clamped": stats.jumps_clamped, "ended": stats.reason or "running"}
+    record: dict[str, Any] = {"model": comp.predictor.model, "cycles": stats.cycles, "overruns": stats.overruns,
+                              "jumps_clamped": stats.jumps_clamped, "ended": stats.reason or "running"}
+    lags = sorted(controller.lags_s) if controller is not None else []
+    if lags:
+        record["lag_ms_median"] = round(1000 * lags[len(lags) // 2], 3)
+        record["lag_ms_max"] = round(1000 * lags[-1], 3)
     if "error" in out:
         record["error"] = str(out["error"])
         print(f"warning: live compensation stopped during the run: {out['error']}", file=stream)

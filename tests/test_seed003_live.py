@@ -68,6 +68,7 @@ def test_the_spline_cuts_the_rotary_error_by_about_94_percent(tmp_path: Path) ->
     meta = json.loads((left / "run.json").read_text())
     assert meta["compensation"]["format"] == "live" and meta["compensation"]["model"] == "spline"
     assert meta["live_compensation"]["cycles"] > 0 and "error" not in meta["live_compensation"]
+    assert 0 < meta["live_compensation"]["lag_ms_median"] <= meta["live_compensation"]["lag_ms_max"] < 1000
     res = guideway("export", left, "--format", "linuxcnc", "--out", tmp_path / "x.comp")
     assert res.returncode == 2 and "measured with live compensation active" in res.stderr  # no table to add to
 

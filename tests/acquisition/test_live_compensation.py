@@ -9,6 +9,7 @@ import io
 import json
 import os
 import signal
+import struct
 import subprocess
 import sys
 import time
@@ -55,6 +56,34 @@ def test_offset_is_the_opposite_of_the_prediction(controller) -> None:  # noqa: 
         thread.join(5)
     assert out["stats"].reason == "stopped"
     assert ctl.applied() == 0.0 and not ctl.enabled  # offset 0 and enable 0 written on the way out
+
+
+def test_cdab_word_order_on_both_sides() -> None:
+    ctl = LiveOffsetController(rotary=False, word_order="CDAB")
+    srv = start_live_controller(ctl)
+    comp = LiveCompensator(predictor_from_means("linear", X, UP, DOWN, rotary=False), srv.url, cycle_ms=2,
+                           max_jump=1000, word_order="CDAB")
+    thread, _ = start_in_thread(comp)
+    try:
+        assert ctl.move_to(65.0) * 1000.0 == pytest.approx(-np.interp(65.0, X, UP), abs=1e-4)  # um -> mm
+        raw = struct.pack(">f", -np.interp(65.0, X, UP))  # the offset's bytes, most significant first
+        assert ctl._regs[12:14] == [int.from_bytes(raw[2:], "big"), int.from_bytes(raw[:2], "big")]  # CDAB
+    finally:
+        comp.stop()
+        thread.join(5)
+        srv.stop()
+    # a compensator with the wrong word order reads a position that makes no sense, or a wrong one: refused
+    ctl = LiveOffsetController(rotary=False, word_order="CDAB", start=123.456)
+    srv = start_live_controller(ctl)
+    try:
+        comp = LiveCompensator(predictor_from_means("linear", X, UP, DOWN, rotary=False), srv.url, cycle_ms=2,
+                               max_jump=1000, word_order="ABCD")
+        state = comp.client
+        state.connect()
+        assert state.read_state().position != 123.456
+        state.close()
+    finally:
+        srv.stop()
 
 
 def test_linear_and_table_models() -> None:
