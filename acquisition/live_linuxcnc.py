@@ -37,7 +37,11 @@ class LinuxCncLive:
     timeout_ms: int = 500  # the stale-heartbeat time T
     av_ratio: float = 0.1  # [AXIS_L] OFFSET_AV_RATIO: share of velocity / acceleration for the offset
     mb2hal_file: str = "guideway-live-mb2hal.ini"
-    hal_file: str = "guideway-live.hal"
+    via: str = "mb2hal"  # "mb2hal" (offset side only) or "component" (the HAL component serving the interface)
+
+    @property
+    def hal_file(self) -> str:
+        return "guideway-live.hal" if self.via == "mb2hal" else "guideway-live-component.hal"
 
     def __post_init__(self) -> None:
         if len(self.axis) != 1 or self.axis.upper() not in AXES:
@@ -51,6 +55,8 @@ class LinuxCncLive:
         if not 0 < self.av_ratio <= 0.9:  # external-offsets.adoc: 0 <= r <= 0.9, 0 disables the offset
             raise ValueError(f"OFFSET_AV_RATIO must be > 0 and <= 0.9 (0 disables external offsets), "
                              f"got {self.av_ratio}")
+        if self.via not in ("mb2hal", "component"):
+            raise ValueError(f"--via must be mb2hal or component, got {self.via!r}")
         if self.timeout_ms < 1:
             raise ValueError(f"heartbeat timeout must be >= 1 ms, got {self.timeout_ms}")
 
@@ -135,6 +141,23 @@ def hal_lines(c: LinuxCncLive) -> str:
         "net gw-watchdog watchdog.ok-out => gw-ok.in0",
         f"# the compensator reads axis.{a}.pos-cmd (without the offset) and the direction from registers 2-7:",
         "# mb2hal writes 16-bit registers only, so that path needs a HAL user component (docs/compensation.md)",
+        "",
+    ])
+
+
+def component_hal_lines(c: LinuxCncLive) -> str:
+    """HAL for the component path (drivers/live_compensation/linuxcnc_component.py): the component serves
+    the whole interface (position and direction in, offset out) and drives ``eoffset-counts`` itself."""
+    a = c.letter
+    return "\n".join([
+        f"# guideway live compensation on axis {c.axis.upper()} through its HAL component (docs/compensation.md)",
+        f"loadusr -Wn guideway-live python3 -m drivers.live_compensation.linuxcnc_component --axis {c.axis.upper()} "
+        f"--port {c.server_port} --device-id {c.device_id} --timeout-ms {c.timeout_ms}",
+        f"net gw-pos-cmd axis.{a}.pos-cmd => guideway-live.pos-cmd",
+        "net gw-homed motion.is-all-homed => guideway-live.homed",
+        f"net gw-eoffset-counts guideway-live.eoffset-counts => axis.{a}.eoffset-counts",
+        f"setp axis.{a}.eoffset-scale {c.scale:.12g}",
+        f"setp axis.{a}.eoffset-enable 1",
         "",
     ])
 

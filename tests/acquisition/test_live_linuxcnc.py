@@ -150,3 +150,27 @@ def test_bad_options_are_one_line(tmp_path: Path, args: tuple[str, ...], fragmen
                           str(tmp_path / "o")], cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert res.returncode == 2 and res.stderr.count("\n") == 1 and fragment in res.stderr, res.stderr
     assert not (tmp_path / "o").exists()
+
+
+def test_component_path_hal(tmp_path: Path) -> None:
+    res = subprocess.run([sys.executable, "-m", "tui.cli", "compensate", "linuxcnc-config", "--axis", "X",
+                          "--server", "0.0.0.0:1502", "--via", "component", "--out", str(tmp_path)], cwd=ROOT,
+                         capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0, res.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["guideway-live-component.hal", "guideway-live.ini"]
+    lines = [ln for ln in (tmp_path / "guideway-live-component.hal").read_text().splitlines()
+             if ln and not ln.startswith("#")]
+    load = lines[0].split()
+    assert load[:3] == ["loadusr", "-Wn", "guideway-live"]  # -Wn waits for the component of that name
+    assert load[3:6] == ["python3", "-m", "drivers.live_compensation.linuxcnc_component"]
+    # pins: the component's (its newpin calls) and motion's (axis.L.pos-cmd, motion.is-all-homed: outputs)
+    component_in, component_out = {"guideway-live.pos-cmd", "guideway-live.homed"}, {"guideway-live.eoffset-counts"}
+    motion_out, motion_in = {"axis.x.pos-cmd", "motion.is-all-homed"}, {"axis.x.eoffset-counts"}
+    nets = [ln.split() for ln in lines if ln.startswith("net ")]
+    assert len(nets) == 3
+    for net in nets:
+        src, dst = net[2], net[4]
+        assert net[3] == "=>" and src in component_out | motion_out and dst in component_in | motion_in, net
+    text = "\n".join(lines)
+    assert "setp axis.x.eoffset-scale 0.0001" in text  # one count = 0.1 um = 1e-4 mm
+    assert "setp axis.x.eoffset-enable 1" in text

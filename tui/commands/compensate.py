@@ -5,7 +5,7 @@ docs/compensation.md, "Live compensation").
         [--cycle-ms 8] [--max-jump-um 5] [--word-order ABCD|CDAB] [--cycles N] [--quiet]
 
     guideway compensate linuxcnc-config --axis C --server IP[:PORT] [--device-id N] [--timeout-ms 500]
-        [--av-ratio 0.1] --out DIR
+        [--av-ratio 0.1] [--via mb2hal|component] --out DIR
 
 Exit codes (live): 0 switched off at the controller or ``--cycles`` done, 130 Ctrl+C (offset 0 written first),
 3 connection lost (the controller drops the offset after its heartbeat timeout), 2 usage / data errors.
@@ -49,22 +49,23 @@ def run(args: argparse.Namespace) -> int:
 
 
 def linuxcnc_config(args: argparse.Namespace) -> int:
-    from acquisition.live_linuxcnc import LinuxCncLive, hal_lines, ini_lines, mb2hal_ini
+    from acquisition.live_linuxcnc import LinuxCncLive, component_hal_lines, hal_lines, ini_lines, mb2hal_ini
     from saved_runs.errors import UserError
 
     ip, _, port = args.server.partition(":")
     try:
         cfg = LinuxCncLive(axis=args.axis, rotary=args.axis.upper() in "ABC", server_ip=ip,
                            server_port=int(port) if port else 502, device_id=args.device_id,
-                           timeout_ms=args.timeout_ms, av_ratio=args.av_ratio)
+                           timeout_ms=args.timeout_ms, av_ratio=args.av_ratio, via=args.via)
     except ValueError as exc:
         raise UserError(f"linuxcnc-config: {exc}") from None
     args.out.mkdir(parents=True, exist_ok=True)
-    for name, text in ((cfg.mb2hal_file, mb2hal_ini(cfg)), (cfg.hal_file, hal_lines(cfg)),
-                       ("guideway-live.ini", ini_lines(cfg))):
+    files = [(cfg.mb2hal_file, mb2hal_ini(cfg)), (cfg.hal_file, hal_lines(cfg))] if cfg.via == "mb2hal" else [
+        (cfg.hal_file, component_hal_lines(cfg))]
+    for name, text in (*files, ("guideway-live.ini", ini_lines(cfg))):
         (args.out / name).write_text(text, encoding="utf-8")
         print(f"wrote {args.out / name}")
-    print("add the lines of guideway-live.ini to the machine's INI file; copy the other two next to it "
+    print("add the lines of guideway-live.ini to the machine's INI file; copy the other file(s) next to it "
           "(docs/compensation.md, LinuxCNC)")
     return 0
 
@@ -112,5 +113,8 @@ def register(sub) -> None:  # noqa: ANN001
     lc.add_argument("--timeout-ms", type=int, default=500, help="stale-heartbeat time T in ms (default 500)")
     lc.add_argument("--av-ratio", type=float, default=0.1,
                     help="[AXIS_L] OFFSET_AV_RATIO: velocity/acceleration share of the offset (default 0.1)")
-    lc.add_argument("--out", type=Path, required=True, help="folder for the three files")
+    lc.add_argument("--via", choices=("mb2hal", "component"), default="mb2hal",
+                    help="mb2hal: read the offset from a Modbus server holding the registers (the position needs "
+                         "another path); component: guideway's HAL component serves the whole interface")
+    lc.add_argument("--out", type=Path, required=True, help="folder for the files")
     lc.set_defaults(func=linuxcnc_config)
