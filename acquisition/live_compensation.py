@@ -84,7 +84,10 @@ def predictor_from_means(model: str, target: np.ndarray, mean_up: np.ndarray, me
             values = np.interp(grid, x, e)
             curves.append(lambda p, g=grid, v=values: float(np.interp(p, g, v)))
         else:
-            fitted = fit_model(model, x, e, degree=degree, tolerance=tolerance)
+            try:
+                fitted = fit_model(model, x, e, degree=degree, tolerance=tolerance)
+            except ValueError as exc:  # too few or unmeasured targets
+                raise UserError(f"live compensation: cannot fit the {model} model: {exc}") from None
             curves.append(lambda p, f=fitted: float(f(p)))
     return LivePredictor(model, rotary, float(x[0]), float(x[-1]), curves[0], curves[1])
 

@@ -293,3 +293,12 @@ def test_acquire_live_compensation_refusals(as_found: Path, tmp_path: Path) -> N
     res = acquire("positioning", "--setup", rotary, "--out", tmp_path / "e", "--simulate", "--auto",
                   "--live-compensation", compensated)
     assert res.returncode == 2 and "measured with compensation active" in res.stderr, res.stderr
+
+
+def test_unfittable_means_are_a_one_line_error() -> None:
+    from saved_runs.errors import UserError
+
+    with pytest.raises(UserError, match="cannot fit the spline model"):
+        predictor_from_means("spline", X, np.where(X == 90.0, np.nan, UP), DOWN, rotary=True)
+    with pytest.raises(UserError, match="unknown live model"):
+        predictor_from_means("nurbs", X, UP, DOWN, rotary=True)
