@@ -103,3 +103,12 @@ def test_move_to_waits_for_the_answer_to_its_sample() -> None:
     assert ctl.lags_s == type(ctl.lags_s)()  # no answer to sample 1 yet
     ctl._write(9, [2, 1, 0, *f32(-3.6)])
     assert len(ctl.lags_s) == 1
+
+
+def test_reversal_error_makes_the_up_and_down_curves_cross() -> None:
+    from mocks.machine_axis import AxisErrors
+
+    ax = AxisErrors(pitch=(), slope_per_m=0.0, backlash=0.0, periodic=0.0, thermal_per_m_per_h=0.0,
+                    reversal=((6.0, 360.0, 0.0),))
+    for p, split in ((90.0, 6.0), (270.0, -6.0), (0.0, 0.0), (30.0, 3.0)):  # e_up - e_down = 6 sin(p)
+        assert ax.deviation(p, 1, 0.0) - ax.deviation(p, -1, 0.0) == pytest.approx(split, abs=1e-12)
