@@ -302,3 +302,10 @@ def test_unfittable_means_are_a_one_line_error() -> None:
         predictor_from_means("spline", X, np.where(X == 90.0, np.nan, UP), DOWN, rotary=True)
     with pytest.raises(UserError, match="unknown live model"):
         predictor_from_means("nurbs", X, UP, DOWN, rotary=True)
+
+
+def test_cli_choices_are_the_models() -> None:
+    from acquisition.live_compensation import LIVE_MODELS
+    from tui.commands.compensate import LIVE_MODELS as CLI_MODELS
+
+    assert CLI_MODELS == LIVE_MODELS  # written out so that --help loads no numerics
