@@ -13,7 +13,7 @@ import struct
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -101,23 +101,25 @@ def test_jump_limit_clamps_and_logs(controller) -> None:  # noqa: ANN001
     pred = predictor_from_means("linear", X, UP, DOWN, rotary=True)
     log = io.StringIO()
     comp = LiveCompensator(pred, srv.url, cycle_ms=2, max_jump=1.0, stream=log)
+    written: list[float] = []  # every offset the compensator writes, in order
+    original = comp.client.write_cycle
+
+    def record(heartbeat: int, echo: int, offset: float) -> None:
+        written.append(offset)
+        original(heartbeat, echo, offset)
+
+    comp.client.write_cycle = record  # type: ignore[method-assign]
     thread, _ = start_in_thread(comp)
-    seen: list[float] = []
     try:
         target = -float(np.interp(90.0, X, UP))  # -10 arcsec from 0: ten steps of at most 1
-        sample = ctl.publish(90.0)
-        deadline = time.monotonic() + 5
-        while time.monotonic() < deadline and (not seen or abs(seen[-1] - target) > 1e-4):
-            if ctl._regs[10] == sample:
-                value = ctl.applied()
-                if not seen or value != seen[-1]:
-                    seen.append(value)
-            time.sleep(0.0005)
+        ctl.move_to(90.0)  # returns once the offset has settled
+        assert ctl.applied() == pytest.approx(target, abs=1e-4)
     finally:
         comp.stop()
         thread.join(5)
-    assert seen[-1] == pytest.approx(target, abs=1e-4)
-    assert np.all(np.abs(np.diff([0.0, *seen])) <= 1.0 + 1e-5), seen
+    moving = list(written[:-1])  # the last write is the 0 on the way out
+    assert np.all(np.abs(np.diff([0.0, *moving])) <= 1.0 + 1e-9), moving
+    assert sum(1 for w in moving if -10.0 < w < 0.0) >= 9  # the ramp: -1, -2, ..., -9
     assert comp.stats.jumps_clamped >= 9
     assert "jump: offset +0.000 -> -10.000 arcsec at 90.0000 deg (+): clamped to -1.000" in log.getvalue()
 
@@ -194,6 +196,15 @@ def _compensate(run: Path, port: int) -> subprocess.Popen:
     return proc
 
 
+def _until(check: Callable[[], bool], timeout_s: float = 10.0) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if check():
+            return True
+        time.sleep(0.05)
+    return False
+
+
 def _end(*procs: subprocess.Popen) -> None:
     for p in procs:
         if p.poll() is None:
@@ -213,8 +224,7 @@ def test_cli_exits_3_with_one_line_when_the_server_dies(as_found: Path) -> None:
     server, port = _server()
     comp = _compensate(as_found, port)
     try:
-        time.sleep(0.5)
-        assert _registers(port)[9] > 10  # it is cycling: the heartbeat moved
+        assert _until(lambda: _registers(port)[9] > 10)  # it is cycling: the heartbeat moved
         server.kill()  # the controller dies mid-run
         server.communicate(timeout=5)
         _, err = comp.communicate(timeout=15)
@@ -230,9 +240,7 @@ def test_cli_ctrl_c_writes_offset_zero_before_exit(as_found: Path) -> None:
     server, port = _server()
     comp = _compensate(as_found, port)
     try:
-        time.sleep(0.5)
-        before = _registers(port)
-        assert before[8] == 1 and before[12:14] != [0, 0]  # enabled, a non-zero offset
+        assert _until(lambda: _registers(port)[8] == 1 and _registers(port)[12:14] != [0, 0])  # a non-zero offset
         os.kill(comp.pid, signal.SIGINT)
         _, err = comp.communicate(timeout=15)
         after = _registers(port)
