@@ -404,6 +404,8 @@ def run_positioning(
     subscribers: tuple[Subscriber, ...] = (),
     on_engine: EngineHook | None = None,
     on_deviation: DeviationCallback | None = None,
+    live_compensation: Path | str | None = None,
+    live_model: str | None = None,
 ) -> PositioningResult:
     """Acquire (or resume) an ISO 230-2 positioning run into ``out``.
 
@@ -411,8 +413,12 @@ def run_positioning(
     exactly the same set-up (targets included).  ``operator``, ``subscribers``, ``on_engine``: as for
     :func:`run_straightness`; ``on_deviation`` gets every point's live deviation as well (the
     environment-compensated value the terminal shows, :class:`~acquisition.live.LiveDeviation`).
+    ``live_compensation``: an as-found run; with ``simulate`` the simulated controller serves the
+    live-compensation interface and a compensator (``live_model`` of that run) runs against it over
+    loopback Modbus TCP in this process (docs/compensation.md, "Live compensation in simulation").
     """
     out = Path(out)
+    predictor = _live_predictor(live_compensation, live_model or "spline", setup, simulate, resume)
     rp = None
     if resume:
         store = RunStore.for_resume(out)
@@ -430,6 +436,10 @@ def run_positioning(
         _check_hands_free(setup, auto, simulate, operator)
         active = _compensation(setup, simulate, None)
         record = active.record(setup.unit, _applied_by(simulate)) if active is not None else NO_COMPENSATION
+        if predictor is not None:
+            if active is not None:
+                raise SetupError("--live-compensation with a compensation table: choose one")
+            record = _live_record(predictor)
         stored = {"setup_source": storable_setup_source(setup_source)} if setup_source else {}  # no password
         store = RunStore(out, {**setup.header(), **stored, "compensation": record})
         store.prepare()
@@ -438,6 +448,7 @@ def run_positioning(
         simulate = simulate.resumed(store.meta["simulation"])
     simulate, scenario = _scenario(simulate, setup.scenario, "positioning")
     sim = None
+    live_run: Any = None
     cleanup = ExitStack()  # simulated devices, closed when the run ends
     url = setup.devices.controller_url
     environment_url = setup.devices.environment_url
@@ -446,8 +457,11 @@ def run_positioning(
             sim = start_simulated_machine(setup, seed=simulate.seed, noise=simulate.noise, faults=simulate.faults,
                                           start_at=rp.next_index if rp is not None else 0, scenario=scenario,
                                           device_id=_device_id(setup.devices.controller_url),
-                                          compensation=active.table if active is not None else None)
+                                          compensation=active.table if active is not None else None,
+                                          live_compensation=predictor is not None)
             cleanup.callback(sim.close)
+            if predictor is not None:
+                live_run = _start_live(predictor, sim.live_url, stream, cleanup)
             refuse_faults_that_cannot_fire(sim.faults, sensor=False)
             url = sim.controller_url
             print(f"simulated machine axis {setup.axis_name} ({setup.trigger.mode} trigger) behind {url}",
@@ -480,12 +494,76 @@ def run_positioning(
                 outcome = engine.run(positioning_plan(setup, {}, resume=rp))
             if sim is not None:
                 _report_faults(store, sim.faults, stream)
+            if predictor is not None:
+                _finish_live(store, *live_run, stream, sim.live_controller if sim is not None else None)
         finally:
             rig.close()
     finally:
         cleanup.close()
     _print_outcome(outcome, store, out, stream)
     return PositioningResult(out, outcome, setup, sim, tuple(engine.faults), live)
+
+
+def _live_predictor(run: Path | str | None, model: str, setup: PositioningSetup | None, simulate: SimOptions | None,
+                    resume: bool) -> Any:
+    """The live model of the as-found ``run`` (None without live compensation); checks the options."""
+    if run is None:
+        return None
+    if simulate is None:
+        raise SetupError("--live-compensation needs --simulate (with a real controller run guideway compensate live "
+                         "RUN --controller URL next to the acquisition)")
+    if resume:
+        raise SetupError("--live-compensation applies to a new run; a resumed run cannot take it up")
+    from .live_compensation import predictor_from_run
+
+    predictor = predictor_from_run(run, model)
+    if setup is not None and predictor.rotary != (setup.axis_type == "rotary"):
+        raise SetupError(f"--live-compensation {run} is a {'rotary' if predictor.rotary else 'linear'} axis's run, "
+                         f"this set-up's axis is {setup.axis_type}")
+    return predictor
+
+
+def _live_record(predictor: Any) -> dict[str, Any]:
+    """run.json ``compensation`` of a run measured with live compensation."""
+    return {"active": True, "format": "live", "file": f"live {predictor.model}", "model": predictor.model,
+            "as_found_run": predictor.run, "as_found_sha256": predictor.points_sha256,
+            "sha256": predictor.points_sha256, "applied_by": "simulated controller"}
+
+
+def _start_live(predictor: Any, url: str, stream: TextIO, cleanup: ExitStack) -> tuple[Any, Any, dict[str, Any]]:
+    """The compensator in a thread against the simulated controller; stopped by ``cleanup``."""
+    from .live_compensation import LiveCompensator, start_in_thread
+
+    comp = LiveCompensator(predictor, url, stream=stream)
+    thread, out = start_in_thread(comp)
+
+    def stop() -> None:
+        comp.stop()
+        thread.join(timeout=5)
+
+    cleanup.callback(stop)
+    print(f"live compensation: {predictor.model} model of {predictor.run} against the simulated controller "
+          f"at {url} (cycle {comp.cycle_s * 1000:g} ms)", file=stream)
+    return comp, thread, out
+
+
+def _finish_live(store: RunStore, comp: Any, thread: Any, out: dict[str, Any], stream: TextIO,
+                 controller: Any = None) -> None:
+    """Stop the compensator and keep what it did in run.json ``live_compensation`` (with the lag of the
+    offset behind each move the simulated controller measured, ms)."""
+    comp.stop()
+    thread.join(timeout=5)
+    stats = comp.stats
+    record: dict[str, Any] = {"model": comp.predictor.model, "cycles": stats.cycles, "overruns": stats.overruns,
+                              "jumps_clamped": stats.jumps_clamped, "ended": stats.reason or "running"}
+    lags = sorted(controller.lags_s) if controller is not None else []
+    if lags:
+        record["lag_ms_median"] = round(1000 * lags[len(lags) // 2], 3)
+        record["lag_ms_max"] = round(1000 * lags[-1], 3)
+    if "error" in out:
+        record["error"] = str(out["error"])
+        print(f"warning: live compensation stopped during the run: {out['error']}", file=stream)
+    store("annotate", {"key": "live_compensation", "value": record})
 
 
 def _applied_by(simulate: SimOptions | None) -> str:

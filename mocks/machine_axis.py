@@ -94,6 +94,9 @@ class AxisErrors:
     periodic_period: float = 10.0
     thermal_per_m_per_h: float = 4.0
     noise: float = 0.15
+    # a reversal error that varies along the axis (amplitude, wavelength, phase): e↑ − e↓ gains
+    # amplitude·sin(2π p / wavelength + phase), so the ↑ and ↓ curves cross (seed 003's rotary axis)
+    reversal: tuple[tuple[float, float, float], ...] = ()
 
     def deviation(self, p: float, direction: int, t_h: float) -> float:
         """Error (um or arcsec) of a stop at ``p`` approached in ``direction`` at machine time ``t_h`` hours."""
@@ -102,6 +105,8 @@ class AxisErrors:
             e += amp * math.sin(2 * math.pi * p / wl + ph)
         e += self.periodic * math.sin(2 * math.pi * p / self.periodic_period)
         e -= direction * self.backlash / 2.0
+        for amp, wl, ph in self.reversal:
+            e += direction * amp / 2.0 * math.sin(2 * math.pi * p / wl + ph)
         e += self.thermal_per_m_per_h * p / 1000.0 * t_h
         return e
 

@@ -85,8 +85,13 @@ class SimulatedAxisSetup:
     drift_c_per_h: float = 0.05
     plc_bits_left_set: bool = False  # the PLC left in position / cycle finished set from an earlier cycle
     program_start_s: float = 0.0  # the program reaches its first block this long after Cycle Start
+    # a reversal error varying along the axis: e↑ − e↓ gains amplitude·sin(2π p / wavelength), ↑ and ↓ cross
+    reversal_amplitude: float = 0.0
+    reversal_wavelength: float = 360.0
 
     def __post_init__(self) -> None:
+        if not (math.isfinite(self.reversal_wavelength) and self.reversal_wavelength > 0):
+            raise SetupError(f"[simulation] reversal_wavelength must be a number > 0, got {self.reversal_wavelength}")
         if not (math.isfinite(self.program_start_s) and self.program_start_s >= 0):
             raise SetupError(f"[simulation] program_start_s must be a number >= 0, got {self.program_start_s}")
 

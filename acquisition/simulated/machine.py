@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 from mocks.faults import FaultPlan
 from mocks.interferometer import InterferometerEmulator, ModbusServerThread, start_controller
+from mocks.live_controller import LiveOffsetController, start_live_controller
 from mocks.machine_axis import AxisErrors, InPositionRegisters, LinearOptics, MachineAxis, MachineStop
 from mocks.world import Environment
 from processing.compensation.stage import Compensator, ControllerTable
@@ -31,6 +32,14 @@ class SimulatedMachine:
     controller_url: str
     _modbus: ModbusServerThread
     faults: FaultPlan | None = None
+    # live compensation (docs/compensation.md): the controller's external-offset interface and its server
+    live_controller: LiveOffsetController | None = None
+    _live_server: ModbusServerThread | None = None
+
+    @property
+    def live_url(self) -> str:
+        """The live-compensation interface's Modbus TCP URL ("" without live compensation)."""
+        return self._live_server.url if self._live_server is not None else ""
 
     def cycle_start(self, **_: Any) -> None:
         """What the simulated technician does when asked to press Cycle Start."""
@@ -38,6 +47,8 @@ class SimulatedMachine:
 
     def close(self) -> None:
         self._modbus.stop()
+        if self._live_server is not None:
+            self._live_server.stop()
 
 
 HANDSHAKE = {"in-position": "ack", "manual": "cycle-start", "stability": "timed"}
@@ -51,13 +62,16 @@ def _environment(sim: SimulatedAxisSetup) -> Environment:
 
 def axis_errors(setup: PositioningSetup, noise: bool) -> AxisErrors:
     sim = setup.simulation
+    reversal = ((sim.reversal_amplitude, sim.reversal_wavelength, 0.0),) if sim.reversal_amplitude else ()
     if setup.axis_type == "rotary" and sim.errors() == SimulatedAxisSetup().errors():
         # rotary defaults (arcsec): a once-per-revolution error, a 90-tooth worm's periodic error
         return AxisErrors(pitch=((4.0, 360.0, 0.7),), slope_per_m=0.0, backlash=2.0, periodic=1.0,
-                          periodic_period=4.0, thermal_per_m_per_h=0.0, noise=0.3 if noise else 0.0)
+                          periodic_period=4.0, thermal_per_m_per_h=0.0, noise=0.3 if noise else 0.0,
+                          reversal=reversal)
     return AxisErrors(pitch=((sim.pitch_amplitude, sim.pitch_wavelength, 0.4),), slope_per_m=sim.slope_per_m,
                       backlash=sim.backlash, periodic=sim.periodic, periodic_period=sim.periodic_period,
-                      thermal_per_m_per_h=sim.thermal_per_m_per_h, noise=sim.noise if noise else 0.0)
+                      thermal_per_m_per_h=sim.thermal_per_m_per_h, noise=sim.noise if noise else 0.0,
+                      reversal=reversal)
 
 
 def optics_of(setup: PositioningSetup) -> LinearOptics:
@@ -75,7 +89,8 @@ def optics_of(setup: PositioningSetup) -> LinearOptics:
 def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bool = True,
                             faults: str | None = None, start_at: int = 0, device_id: int = 1,
                             scenario: Scenario | None = None,
-                            compensation: ControllerTable | None = None) -> SimulatedMachine:
+                            compensation: ControllerTable | None = None,
+                            live_compensation: bool = False) -> SimulatedMachine:
     """Start a machine axis that runs exactly the set-up's cycle, read by a Modbus TCP controller
     (at unit id ``device_id``).
 
@@ -91,6 +106,9 @@ def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bo
     ``compensation``: the table the simulated controller applies (processing/compensation/stage.py):
     its correction is added to every commanded position, the direction from the commanded motion,
     the axis referenced (homed) before the program starts.
+    ``live_compensation``: the controller serves the live-compensation interface (mocks/live_controller.py,
+    its own Modbus TCP server, :attr:`SimulatedMachine.live_url`) and adds the live offset to every
+    commanded position (a compensator must run against it; without one the offset stays 0).
     """
     plan = parse_faults(faults)
     stops = [MachineStop(s.position, s.target_index, s.run, s.direction) for s in setup.stops()]
@@ -100,7 +118,10 @@ def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bo
         model: dict[str, Any] = {**scenario_axis(scenario, noise), "wall_clock_effects": True}
     else:
         model = {"errors": axis_errors(setup, noise), "environment": _environment(setup.simulation)}
-    compensator = Compensator(compensation, start=setup.datum) if compensation is not None else None
+    if compensation is not None and live_compensation:
+        raise UserError("a compensation table and live compensation at once: choose one")
+    live = LiveOffsetController(rotary=setup.axis_type == "rotary", start=setup.datum) if live_compensation else None
+    compensator: Any = Compensator(compensation, start=setup.datum) if compensation is not None else live
     axis = MachineAxis(stops, rotary=setup.axis_type == "rotary", feed_per_min=setup.feed_per_min,
                        dwell_s=setup.trigger.dwell_s, handshake=HANDSHAKE[setup.trigger.mode], datum=setup.datum,
                        seed=seed, optics=optics_of(setup), bits_left_set=setup.simulation.plc_bits_left_set,
@@ -111,8 +132,9 @@ def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bo
         measured = [k for k, s in enumerate(stops) if s.target_index]
         axis.index = measured[min(start_at, len(measured) - 1)] - 1  # restart: the next block is that target
         axis.commanded = stops[axis.index].position
-        if compensator is not None:  # the controller's state as the program left it there: replay the moves
+        if compensator is not None and live is None:  # the controller's state as the program left it: replay
             for stop in stops[:axis.index + 1]:
                 axis.correction = compensator.move_to(stop.position)
     modbus = start_controller(emulator, device_id=device_id)
-    return SimulatedMachine(axis, modbus.url, modbus, plan)
+    live_server = start_live_controller(live) if live is not None else None
+    return SimulatedMachine(axis, modbus.url, modbus, plan, live, live_server)

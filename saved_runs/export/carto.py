@@ -53,6 +53,10 @@ def active_table(meta: dict[str, Any], options: ExportOptions, axis: str) -> tup
         return None, ""
     fmt = rec.get("format")
     what = compensation_text(rec).removeprefix("controller compensation: ")
+    if fmt == "live":  # an offset computed while the axis moved: there is no table file to add the difference to
+        raise UserError(f"the run was measured with live compensation active ({what}); a table from it would undo "
+                        f"the live offset: export from the as-found run {rec.get('as_found_run', '')} instead, or "
+                        "measure again without live compensation")
     if options.fmt != fmt:
         raise UserError(f"the run was measured with a {fmt} table active ({what}); a {options.fmt} table cannot be "
                         f"combined with it: export --format {fmt} (old table + measured difference), or measure "

@@ -21,6 +21,7 @@ COMMAND_MODULES = (
     "import_data",
     "air_index",
     "export",
+    "compensate",
     "volumetric",
     "sim",
     "devices",

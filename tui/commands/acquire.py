@@ -3,6 +3,7 @@
     guideway acquire straightness --setup SETUP.toml --out RUN_DIR [--simulate] [--auto]
     guideway acquire positioning --setup SETUP.toml --out RUN_DIR [--simulate] [--auto]
         [--compensation FILE [--compensation-format F] [--comp-file-type 0|1]] [--shift-targets S]
+        [--simulate --live-compensation AS_FOUND_RUN [--live-model spline|linear|polynomial|bidirectional-table]]
     guideway acquire [KIND] --resume RUN_DIR [--simulate] [--auto]     (or: KIND --out RUN_DIR --resume)
 
 The plain-terminal operator asks on stdin/stdout (Enter = capture) unless
@@ -19,6 +20,7 @@ from pathlib import Path
 from acquisition.setup.compensation import COMPENSATION_FORMATS
 
 from . import seed as seed_arg
+from .compensate import LIVE_MODELS
 
 KINDS = ("straightness", "positioning")
 
@@ -58,8 +60,15 @@ def run(args: argparse.Namespace) -> int:
         source = _with_compensation(args, source)
     if args.shift_targets is not None:
         source = _with_shift(args, source, resume)
+    live = {}
+    if args.live_compensation is not None:
+        if args.kind != "positioning":
+            raise SetupError("--live-compensation is for positioning runs")
+        live = {"live_compensation": args.live_compensation, "live_model": args.live_model}
+    elif args.live_model is not None:
+        raise SetupError("--live-model needs --live-compensation AS_FOUND_RUN")
     res = acquire(args.kind, source, str(args.setup), args.out, simulate=sim, auto=args.auto, resume=resume,
-                  stream=sys.stdout, stdin=sys.stdin)  # this call's streams, not import time's
+                  stream=sys.stdout, stdin=sys.stdin, **live)  # this call's streams, not import time's
     status = res.outcome.exit_status
     if status == "fail":
         raise UserError(f"run failed ({res.outcome.reason}); the points captured are in {args.out}; "
@@ -137,4 +146,10 @@ def register(sub) -> None:  # noqa: ANN001
                    help="the table's controller (default: from the file's content)")
     a.add_argument("--comp-file-type", type=int, choices=(0, 1), default=None,
                    help="LinuxCNC COMP_FILE_TYPE of the table (0: actual positions, 1: trims); needed for linuxcnc")
+    a.add_argument("--live-compensation", type=Path, default=None, metavar="AS_FOUND_RUN",
+                   help="positioning, --simulate: the simulated controller takes a live external offset from a "
+                        "compensator running in this process over Modbus TCP, modelling AS_FOUND_RUN "
+                        "(docs/compensation.md, live compensation)")
+    a.add_argument("--live-model", choices=LIVE_MODELS, default=None,
+                   help="--live-compensation: the error model (default spline)")
     a.set_defaults(func=run)
