@@ -7,6 +7,7 @@ writes next to a run or at ``--out`` (run.json, results, reports, tables) goes t
 
 from __future__ import annotations
 
+import datetime
 import json
 import os
 import re
@@ -77,6 +78,13 @@ def write_text_atomic(path: Path | str, text: str) -> None:
     write_atomic(path, lambda f: f.write(data))
 
 
+def _iso_date(value: Any) -> str:
+    """A TOML date, date-time or time as ISO 8601 text (json's ``default``); anything else is refused."""
+    if isinstance(value, datetime.date | datetime.time):
+        return value.isoformat()
+    raise TypeError(f"Object of type {type(value).__name__} is not JSON serializable")
+
+
 def write_json_atomic(path: Path | str, obj: Any) -> None:
     """Replace ``path`` with ``obj`` as JSON (no NaN), atomically (:func:`write_atomic`).  Encoded
     piece by piece into the file: the summary of a 100 000-station run is never held as one string."""
@@ -84,7 +92,8 @@ def write_json_atomic(path: Path | str, obj: Any) -> None:
     def write(f: BinaryIO) -> None:
         pieces: list[str] = []
         size = 0
-        for piece in json.JSONEncoder(indent=2, allow_nan=False).iterencode(obj):  # as json.dumps(indent=2)
+        # as json.dumps(indent=2); TOML dates (a set-up's [[instrument]] in setup_source) as ISO 8601 text
+        for piece in json.JSONEncoder(indent=2, allow_nan=False, default=_iso_date).iterencode(obj):
             pieces.append(piece)
             size += len(piece)
             if size >= 1 << 16:
