@@ -25,6 +25,7 @@ COMMAND_MODULES = (
     "sim",
     "devices",
     "report",
+    "certificate",
     "simulate",
     "diagnose",
     "compare",
