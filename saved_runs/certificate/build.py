@@ -449,7 +449,8 @@ def as_left_section(doc: TypstDoc, found: tuple[LoadedRun, Any], left: tuple[Loa
         delta = v2 - v1
         ud = math.hypot(u1, u2) if u1 is not None and u2 is not None else None
         red = (v1 - v2) / v1 * 100.0 if math.isfinite(v1) and math.isfinite(v2) and v1 > 0 else math.nan
-        rows.append((name, unit, _f(v1), _f(v2), _f(delta), _f(ud) if ud is not None else "not known",
+        label = name.replace("_up", " ↑").replace("_down", " ↓")
+        rows.append((label, unit, _f(v1), _f(v2), _f(delta), _f(ud) if ud is not None else "not known",
                      f"{_f(red, 1)} %" if math.isfinite(red) else "—"))
     doc.table(("value", "unit", "as found", "as left", "delta (left − found)", "U of delta (k = 2)", "reduction"),
               rows)

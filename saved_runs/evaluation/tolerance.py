@@ -42,10 +42,10 @@ REFERENCE_LINES = ("minimum_zone", "least_squares", "endpoint")
 DECISION_RULES = ("simple", "guard-band", "iso14253")
 DEFAULT_DECISION_RULE = "simple"
 DECISION_RULE_NAMES = {
-    "simple": "ILAC-G8:09/2019 simple acceptance (shared risk, no guard band): conforms when value <= limit",
-    "guard-band": "ILAC-G8:09/2019 guarded acceptance, guard band w = U: conforms when value <= limit - U, "
+    "simple": "ILAC-G8:09/2019 simple acceptance (shared risk, no guard band): conforms when value ≤ limit",
+    "guard-band": "ILAC-G8:09/2019 guarded acceptance, guard band w = U: conforms when value ≤ limit − U, "
                   "otherwise does not conform",
-    "iso14253": "ISO 14253-1:2017: conforms when value + U <= limit, does not conform when value - U > limit, "
+    "iso14253": "ISO 14253-1:2017: conforms when value + U ≤ limit, does not conform when value − U > limit, "
                 "otherwise not decidable",
 }
 # What the certificate calls each result (the CLI and the report print the result itself).

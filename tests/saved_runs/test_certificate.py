@@ -136,8 +136,9 @@ def test_every_field_of_a_positioning_certificate_with_as_left(tmp_path: Path, f
     assert f"air temperature (°C) {t.min():.3f} {t.mean():.3f} {t.max():.3f}" in doc
     # ISO 230-2 values per direction with k
     iso = iso_by_hand()
-    for row, up, dn, bi in (("A (accuracy)", "A_up", "A_down", "A"), ("E (systematic deviation)", "E_up", "E_down",
-                                                                      "E"), ("R (repeatability)", "R_up", "R_down", "R")):
+    rows = (("A (accuracy)", "A_up", "A_down", "A"), ("E (systematic deviation)", "E_up", "E_down", "E"),
+            ("R (repeatability)", "R_up", "R_down", "R"))
+    for row, up, dn, bi in rows:
         assert f"{row} {iso[up]:.3f} {iso[dn]:.3f} {iso[bi]:.3f}" in doc, row
     assert f"M (mean deviation) {iso['M']:.3f}" in doc and f"B (reversal value) {iso['B']:.3f}" in doc
     assert "k = 2" in doc and "U of these values: not evaluated" in doc
@@ -252,3 +253,49 @@ def test_lab_and_customer_files_are_checked(tmp_path: Path) -> None:
     one_line_error(guideway("certificate", run, "--out", tmp_path / "c.pdf", "--issue-date", "2026-11-21"),
                    "before the measurement")
     one_line_error(guideway("certificate", run, "--out", tmp_path / "c.txt"), "*.pdf")
+
+
+def test_instrument_tables_in_a_set_up(tmp_path: Path) -> None:
+    import datetime
+    import tomllib
+
+    from acquisition.setup.positioning import positioning_setup_from_dict
+    from acquisition.setup.straightness import straightness_setup_from_dict
+    from saved_runs.errors import SetupError
+    from saved_runs.store.files import write_json_atomic
+    from saved_runs.store.instruments import run_instruments
+    from tests.setups import straightness_setup_text
+
+    tables = '''
+[[instrument]]
+role = "laser interferometer"
+model = "XL-80"
+serial = "L123456"
+calibrated = 2026-03-02
+due = 2027-03-02
+'''
+    data = tomllib.loads("kind = \"positioning\"\n[axis]\nend_mm = 1000.0\n" + tables)
+    setup = positioning_setup_from_dict(data, "s.toml")
+    recorded = [{"role": "laser interferometer", "model": "XL-80", "serial": "L123456",
+                 "calibrated": "2026-03-02", "due": "2027-03-02"}]
+    assert setup.to_run_setup()["instruments"] == recorded
+    # run.json keeps the set-up's TOML (setup_source) with its dates as ISO text; a resume reads it back
+    write_json_atomic(tmp_path / "run.json", {"setup_source": data})
+    stored = json.loads((tmp_path / "run.json").read_text())["setup_source"]
+    assert positioning_setup_from_dict(stored, "run.json", stored=True).instruments == recorded
+    straight = tomllib.loads(straightness_setup_text(stations=5) + tables)
+    assert straightness_setup_from_dict(straight, "s.toml").to_run_setup()["instruments"] == recorded
+    assert run_instruments(json.loads((V1_RUN / "run.json").read_text())) == []  # an older run: none
+    bad = {
+        'role = "x"\ncalibrated = 2026-03-02': "model is missing",
+        'role = "x"\nmodel = "y"\ndue = "2027-03-02"': "must be a TOML date",
+        'role = "x"\nmodel = "y"\ndue = 2027-03-02T10:00:00': "must be a TOML date",
+        'role = "x"\nmodel = "y"\nexpires = 2027-03-02': "unknown key 'expires'",
+        'role = "x"\nmodel = "y"\ncalibrated = 2027-03-02\ndue = 2026-03-02': "is before calibrated",
+    }
+    for body, message in bad.items():
+        doc = tomllib.loads("kind = \"positioning\"\n[axis]\nend_mm = 1000.0\n[[instrument]]\n" + body)
+        with pytest.raises(SetupError, match=message) as exc:
+            positioning_setup_from_dict(doc, "s.toml")
+        assert "\n" not in str(exc.value) and str(exc.value).startswith("s.toml: [[instrument]] #1")
+    assert datetime.date(2027, 3, 2).isoformat() == recorded[0]["due"]
