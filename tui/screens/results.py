@@ -146,6 +146,7 @@ class ResultsScreen(Screen):
                 Binding("3", "export('siemens')", "Siemens table", show=False),
                 Binding("4", "export('csv')", "CSV table", show=False),
                 Binding("d", "diagnose", "diagnose"),
+                Binding("p", "certificate", "certificate (PDF)", show=False),
                 Binding("f3", "app.runs", "runs"), Binding("f2", "app.setup", "set-up")]
 
     def __init__(self, run_dir: Path, note: str = "") -> None:
@@ -361,6 +362,17 @@ class ResultsScreen(Screen):
         from saved_runs.report.build import build_report
 
         self._written(lambda: build_report(self.run_dir, **self.options()))
+
+    @work(thread=True, group="files", exit_on_error=False)
+    def action_certificate(self) -> None:
+        """results/certificate.pdf with the default options (docs/certificate.md); a refusal is a notice."""
+        from saved_runs.certificate.build import CertificateOptions, build_certificate
+
+        def write() -> Path:
+            (self.run_dir / "results").mkdir(exist_ok=True)
+            return build_certificate(self.run_dir, self.run_dir / "results" / "certificate.pdf", CertificateOptions())
+
+        self._written(write)
 
     @work(thread=True, group="files", exit_on_error=False)
     def action_write(self) -> None:
