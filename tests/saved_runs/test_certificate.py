@@ -299,3 +299,19 @@ due = 2027-03-02
             positioning_setup_from_dict(doc, "s.toml")
         assert "\n" not in str(exc.value) and str(exc.value).startswith("s.toml: [[instrument]] #1")
     assert datetime.date(2027, 3, 2).isoformat() == recorded[0]["due"]
+
+
+def test_a_simulated_run_records_the_scenario_instruments(tmp_path: Path) -> None:
+    docs = Path(__file__).resolve().parents[2] / "docs"
+    scenario = tmp_path / "s.toml"
+    scenario.write_text((docs / "scenario-positioning.toml").read_text(encoding="utf-8") + '''
+[[instrument]]
+role = "laser interferometer"
+model = "XL-80"
+due = 2020-01-01
+''', encoding="utf-8")
+    assert guideway("simulate", scenario, "--out", tmp_path / "run").returncode == 0
+    meta = json.loads((tmp_path / "run" / "run.json").read_text(encoding="utf-8"))
+    assert meta["setup"]["instruments"] == [{"role": "laser interferometer", "model": "XL-80", "due": "2020-01-01"}]
+    one_line_error(guideway("certificate", tmp_path / "run", "--out", tmp_path / "c.pdf"), "due for calibration on "
+                   "2020-01-01", meta["created"][:10])
