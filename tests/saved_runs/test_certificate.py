@@ -166,6 +166,9 @@ def test_same_run_and_options_give_the_same_bytes(tmp_path: Path, files: dict[st
     certificate(run, b, "--lab", files["lab"])
     assert a.read_bytes() == b.read_bytes()
     assert a.read_bytes().startswith(b"%PDF-")
+    # PDF/A-2b, dated the issue date (the run's date by default), not the clock
+    assert b"<pdfaid:part>2</pdfaid:part><pdfaid:conformance>B</pdfaid:conformance>" in a.read_bytes()
+    assert b"/CreationDate(D:20261122000000Z)" in a.read_bytes()
     c = tmp_path / "c.pdf"  # another issue date: other bytes (the date is in the text)
     assert "Date of issue 2026-12-01" in " ".join(certificate(run, c, "--lab", files["lab"], "--issue-date",
                                                               "2026-12-01"))
