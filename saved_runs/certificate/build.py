@@ -106,9 +106,13 @@ class CertificateOptions:
     lab: Path | None = None
     customer: Path | None = None
     as_left: Path | None = None
+    # the evaluator options of ``process`` (method, mc_trials, k, edition, accept_out_of_range; None: default),
+    # applied to both runs
+    evaluation: dict[str, Any] = field(default_factory=dict)
 
 
-def evaluable(run_dir: Path | str, rule: str, role: str = "") -> tuple[LoadedRun, Any]:
+def evaluable(run_dir: Path | str, rule: str, role: str = "",
+              options: dict[str, Any] | None = None) -> tuple[LoadedRun, Any]:
     """Load and evaluate a run for a certificate; one-line refusal of one that is not complete, has a gap,
     or cannot be read or evaluated."""
     who = f"{role} run " if role else ""
@@ -122,7 +126,7 @@ def evaluable(run_dir: Path | str, rule: str, role: str = "") -> tuple[LoadedRun
         raise RunFormatError(f"{who}{run_dir}: cannot issue a certificate of a run whose status is {status!r} "
                              f"(only complete runs are certified; {run.meta.get('end_reason') or 'not finished'})")
     try:
-        evaluation = evaluate_run(run, decision_rule=rule)
+        evaluation = evaluate_run(run, **{**(options or {}), "decision_rule": rule})
     except (RunFormatError, UserError) as exc:
         raise RunFormatError(f"{who}{run_dir}: cannot issue a certificate: the run cannot be evaluated "
                              f"({exc})") from None
@@ -167,11 +171,11 @@ def build_certificate(run_dir: Path | str, out: Path | str, options: Certificate
 def certificate_pdf(run_dir: Path | str, options: CertificateOptions) -> bytes:
     """The certificate's PDF bytes (deterministic in ``run_dir``'s files and ``options``)."""
     rule = options.decision_rule
-    run, evaluation = evaluable(run_dir, rule)
+    run, evaluation = evaluable(run_dir, rule, options=options.evaluation)
     instruments = check_instruments(run)
     left = None
     if options.as_left is not None:
-        left_run, left_eval = evaluable(options.as_left, rule, "as-left")
+        left_run, left_eval = evaluable(options.as_left, rule, "as-left", options.evaluation)
         check_instruments(left_run, "as-left")
         if left_run.kind != run.kind:
             raise UserError(f"--as-left {options.as_left}: a {left_run.kind} run; the as-found run is a "

@@ -184,6 +184,17 @@ def test_default_number_issue_date_and_not_accredited(tmp_path: Path) -> None:
     assert "This certificate is not issued under accreditation" in doc
 
 
+def test_the_evaluation_options_of_process(tmp_path: Path) -> None:
+    run = positioning(tmp_path, "run")
+    doc = " ".join(certificate(run, tmp_path / "c.pdf", "--edition", "ISO 230-2:2006", "--k", "3"))
+    s = float(np.std(SCATTER_UM, ddof=1))
+    up = np.array(ERR_UP_UM)
+    assert "ISO 230-2:2006, Test code" in doc and "k = 3" in doc
+    assert f"A (accuracy) {(up + 3 * s).max() - (up - 3 * s).min():.3f}" in doc
+    one_line_error(guideway("certificate", run, "--out", tmp_path / "d.pdf", "--method", "patent"),
+                   "--method: not an option for positioning runs")
+
+
 def test_an_instrument_due_before_the_run_refuses_the_certificate(tmp_path: Path) -> None:
     late = [{**INSTRUMENTS[0], "due": "2026-11-21"}, INSTRUMENTS[1]]  # the run is of 2026-11-22
     run = positioning(tmp_path, "run", instruments=late)

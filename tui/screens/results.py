@@ -365,12 +365,14 @@ class ResultsScreen(Screen):
 
     @work(thread=True, group="files", exit_on_error=False)
     def action_certificate(self) -> None:
-        """results/certificate.pdf with the default options (docs/certificate.md); a refusal is a notice."""
+        """results/certificate.pdf with the screen's evaluation options (docs/certificate.md); a refusal is a
+        notice."""
         from saved_runs.certificate.build import CertificateOptions, build_certificate
 
         def write() -> Path:
             (self.run_dir / "results").mkdir(exist_ok=True)
-            return build_certificate(self.run_dir, self.run_dir / "results" / "certificate.pdf", CertificateOptions())
+            return build_certificate(self.run_dir, self.run_dir / "results" / "certificate.pdf",
+                                     CertificateOptions(evaluation=self.options()))  # as the screen evaluates
 
         self._written(write)
 
