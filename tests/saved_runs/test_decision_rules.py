@@ -88,3 +88,22 @@ def test_cli_report_and_certificate_never_disagree(tmp_path: Path, where: str) -
         doc = " ".join(" ".join(p.extract_text().split()) for p in pypdf.PdfReader(pdf).pages)
         assert f"As found: {WORDS[expected]} (verdict {expected.upper()})" in doc, rule
         assert f"{v:.3f} µm {u:.3f} {WORDS[expected]}" in doc and f"Decision rule: {rule} —" in doc
+
+
+def test_positioning_values_without_u_under_every_rule(tmp_path: Path) -> None:
+    """ISO 230-2 values carry no U: simple decides them, guard-band and iso14253 cannot (all three front ends)."""
+    from tests.saved_runs.test_certificate import iso_by_hand, positioning
+
+    a = iso_by_hand()["A"]
+    run = positioning(tmp_path, "run", tolerance={"A_um": round(a + 0.001, 6)})
+    for rule in DECISION_RULES:
+        expected = by_definition(a, round(a + 0.001, 6), None, rule)
+        res = guideway("process", run, "--json", "--no-write", "--decision-rule", rule)
+        assert json.loads(res.stdout)["verdict"]["result"] == expected
+        html = build_report(run, out=tmp_path / "r.html", decision_rule=rule).read_text(encoding="utf-8")
+        assert f"Verdict: {expected.upper()}<" in html
+        pdf = tmp_path / "c.pdf"
+        assert guideway("certificate", run, "--out", pdf, "--decision-rule", rule).returncode == 0
+        doc = " ".join(" ".join(p.extract_text().split()) for p in pypdf.PdfReader(pdf).pages)
+        assert f"As found: {WORDS[expected]} (verdict {expected.upper()})" in doc
+    assert by_definition(a, a + 0.001, None, "iso14253") == "not decidable"
