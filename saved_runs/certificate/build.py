@@ -473,7 +473,8 @@ def as_left_section(doc: TypstDoc, found: tuple[LoadedRun, Any], left: tuple[Loa
 
 def conformity_section(doc: TypstDoc, evaluation: Any, rule: str, left_evaluation: Any = None) -> None:
     doc.heading("Statement of conformity")
-    shown = [("as found", evaluation)] + ([("as left", left_evaluation)] if left_evaluation is not None else [])
+    shown = ([("as found", evaluation), ("as left", left_evaluation)] if left_evaluation is not None
+             else [("outcome", evaluation)])
     if all(ev.verdict is None for _, ev in shown):
         doc.para("No specification was given (set-up [tolerance]): no statement of conformity is made.")
         return
@@ -488,7 +489,7 @@ def conformity_section(doc: TypstDoc, evaluation: Any, rule: str, left_evaluatio
         doc.table(("value", "specification", "measured", "U (k = 2)", "outcome"),
                   [(c.quantity, f"≤ {c.tolerance:g} {UNIT.get(c.unit, c.unit)}",
                     f"{_f(c.value)} {UNIT.get(c.unit, c.unit)}" if c.value is not None else "not evaluated",
-                    _f(c.uncertainty) if c.uncertainty is not None else "not known",
+                    f"{_f(c.uncertainty)} {UNIT.get(c.unit, c.unit)}" if c.uncertainty is not None else "not known",
                     OUTCOME_WORDS[c.result]) for c in v.checks])
 
 

@@ -151,6 +151,7 @@ def test_every_field_of_a_positioning_certificate_with_as_left(tmp_path: Path, f
     assert "As found: compensation table active none" in doc
     # statement of conformity: the rule by name and the outcome per value (A fails by 0.5 µm, E passes)
     assert "Decision rule: simple — ILAC-G8" in doc
+    assert "As found: does not conform (verdict FAIL)" in doc and "As left: conforms (verdict PASS)" in doc
     assert f"A ≤ {found_tol['A_um']:g} µm {iso['A']:.3f} µm not known does not conform" in doc
     assert f"E ≤ 10 µm {iso['E']:.3f} µm not known conforms" in doc
     assert f"A ≤ {found_tol['A_um']:g} µm {left_iso['A']:.3f} µm not known conforms" in doc  # as left

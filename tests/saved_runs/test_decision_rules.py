@@ -86,8 +86,8 @@ def test_cli_report_and_certificate_never_disagree(tmp_path: Path, where: str) -
         pdf = tmp_path / "c.pdf"
         assert guideway("certificate", run, "--out", pdf, "--decision-rule", rule).returncode == 0
         doc = " ".join(" ".join(p.extract_text().split()) for p in pypdf.PdfReader(pdf).pages)
-        assert f"As found: {WORDS[expected]} (verdict {expected.upper()})" in doc, rule
-        assert f"{v:.3f} µm {u:.3f} {WORDS[expected]}" in doc and f"Decision rule: {rule} —" in doc
+        assert f"Outcome: {WORDS[expected]} (verdict {expected.upper()})" in doc, rule
+        assert f"{v:.3f} µm {u:.3f} µm {WORDS[expected]}" in doc and f"Decision rule: {rule} —" in doc
 
 
 def test_positioning_values_without_u_under_every_rule(tmp_path: Path) -> None:
@@ -105,5 +105,5 @@ def test_positioning_values_without_u_under_every_rule(tmp_path: Path) -> None:
         pdf = tmp_path / "c.pdf"
         assert guideway("certificate", run, "--out", pdf, "--decision-rule", rule).returncode == 0
         doc = " ".join(" ".join(p.extract_text().split()) for p in pypdf.PdfReader(pdf).pages)
-        assert f"As found: {WORDS[expected]} (verdict {expected.upper()})" in doc
+        assert f"Outcome: {WORDS[expected]} (verdict {expected.upper()})" in doc
     assert by_definition(a, a + 0.001, None, "iso14253") == "not decidable"
