@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import RunFormatError, SetupError, UserError
+from ..errors import RunFormatError, UserError
 from ..evaluation.evaluate import evaluate_run
 from ..evaluation.tolerance import DECISION_RULE_NAMES, DEFAULT_DECISION_RULE, OUTCOME_WORDS
 from ..report.common import environment_summary, reported_identity, simulated
@@ -25,7 +25,7 @@ from ..store.compensation import run_compensation
 from ..store.instruments import expired, run_instruments
 from ..store.reader import LoadedRun, load_run
 from ..toml_file import TomlTable, read_toml
-from .typeset import TypstDoc, compile_pdf
+from .typeset import TypstDoc, compile_pdf, lit
 
 UNIT = {"um": "µm", "arcsec": "arcsec", "mm": "mm", "deg": "°"}
 NOT_STATED = "not stated"
@@ -197,7 +197,7 @@ def certificate_pdf(run_dir: Path | str, options: CertificateOptions) -> bytes:
 
     doc = TypstDoc()
     doc.code("#align(center, text(size: 17pt, weight: \"bold\", \"Calibration certificate\"))")
-    doc.code(f"#align(center, text(size: 11pt, {lit_text('No. ' + number)}))")
+    doc.code(f"#align(center, text(size: 11pt, {lit('No. ' + number)}))")
     dates = first.isoformat() + ("" if last == first else f" to {last.isoformat()}")
     doc.key_values([
         ("Certificate number", number),
@@ -224,12 +224,6 @@ def certificate_pdf(run_dir: Path | str, options: CertificateOptions) -> bytes:
               "(of run.json followed by points.csv)")
     return compile_pdf(doc, number=number, banner=banner, footer=footer, title=f"Calibration certificate {number}",
                        timestamp=issue)
-
-
-def lit_text(text: str) -> str:
-    from .typeset import lit
-
-    return lit(text)
 
 
 def _axis_text(run: LoadedRun, evaluation: Any) -> tuple[str, str, str]:
@@ -508,7 +502,7 @@ def closing_section(doc: TypstDoc, lab: Party, sha: str, left: LoadedRun | None)
     doc.key_values([("Authorised by", lab.get("authoriser")), ("Role", lab.get("authoriser_role"))])
     doc.code("#v(1.2cm)\n#grid(columns: (7cm, 1fr), [#line(length: 100%, stroke: 0.5pt)\n#text(size: 8pt, "
              "\"Signature\")], [])")
-    doc.code(f"#v(0.6cm)\n#align(center, text(weight: \"bold\", {lit_text('— ' + END_LINE + ' —')}))")
+    doc.code(f"#v(0.6cm)\n#align(center, text(weight: \"bold\", {lit('— ' + END_LINE + ' —')}))")
 
 
 def parse_issue_date(text: str) -> datetime.date:
@@ -518,5 +512,4 @@ def parse_issue_date(text: str) -> datetime.date:
         raise UserError(f"--issue-date {text!r} must be a date YYYY-MM-DD") from None
 
 
-__all__ = ["CertificateOptions", "SetupError", "build_certificate", "certificate_pdf", "parse_issue_date",
-           "run_sha256"]
+__all__ = ["CertificateOptions", "build_certificate", "certificate_pdf", "parse_issue_date", "run_sha256"]
