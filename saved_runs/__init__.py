@@ -9,6 +9,7 @@ Sub-packages, one per job, each importing only those above it in this list:
 * :mod:`.evaluation` — validation limits, tolerance verdicts, straightness and ISO 230-2 evaluation;
 * :mod:`.export` — CNC compensation tables and their residuals;
 * :mod:`.report` — the printable HTML report of a run;
+* :mod:`.certificate` — the calibration certificate (PDF) of a run;
 * :mod:`.diagnosis` — which physical effect a run's model lacks;
 * :mod:`.volumetric` — the volumetric machine model from a machine file and its runs.
 

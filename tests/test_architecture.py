@@ -36,7 +36,7 @@ MAY_IMPORT = {
 MOCKS_IMPORTED_BY = Path("acquisition/simulated")  # the simulated rig: the only importer of mocks
 # saved_runs' sub-packages (and top modules), lowest first: each may import only what stands before it
 SAVED_RUNS_ORDER = ("errors", "toml_file", "store", "catalog", "importing", "results", "evaluation", "export",
-                    "report", "diagnosis", "volumetric")
+                    "report", "certificate", "diagnosis", "volumetric")
 FLEET_ORDER = ("catalog", "compare", "trend", "verify", "overview")
 STACKS = {"saved_runs": SAVED_RUNS_ORDER, "fleet": FLEET_ORDER}
 MAX_SHARE = 0.25

@@ -14,6 +14,7 @@ from processing.iso230_2 import LONG_AXIS_MM
 from saved_runs import nc_text
 from saved_runs.errors import SetupError, UserError
 from saved_runs.evaluation.tolerance import positioning_tolerance
+from saved_runs.store.instruments import instrument_tables
 from saved_runs.toml_file import TomlTable, naming_source, read_toml
 
 from .compensation import CompensationSetup, compensation_setup
@@ -140,6 +141,8 @@ class PositioningSetup:
     notes: str = ""
     tolerance: dict[str, float] = field(default_factory=dict)  # [tolerance], saved_runs.evaluation.tolerance
     scenario: str = ""  # [simulation] scenario: the file --simulate takes its effects from ("" = none)
+    # [[instrument]]: the calibrated instruments (saved_runs.store.instruments), run.json setup.instruments
+    instruments: list[dict[str, str]] = field(default_factory=list)
     compensation: CompensationSetup | None = None  # [compensation]: the table active in the controller
     target_shift: float = 0.0  # [axis] shift_targets_mm (deg): the targets moved by this, between a table's points
 
@@ -222,6 +225,7 @@ class PositioningSetup:
             "devices": asdict(self.devices),
             **({"tolerance": dict(self.tolerance)} if self.tolerance else {}),
             **({f"shift_targets_{u}": self.target_shift} if self.target_shift else {}),
+            **({"instruments": [dict(i) for i in self.instruments]} if self.instruments else {}),
         }
 
     def header(self) -> dict[str, Any]:
@@ -342,6 +346,7 @@ def _positioning_setup(data: dict[str, Any], source: str, nc_checked: bool = Tru
                                       source)
     scenario = scenario_path(sim.get("scenario", str, ""), source)
     compensation = compensation_setup(top, source, u)
+    instruments = instrument_tables(top.get("instrument", list, None), source, stored=not nc_checked)
     for t in (top, ax, tr, en, ctl, gc, sim, catalog_table(top)):
         t.check_unknown()
     setup = PositioningSetup(
@@ -349,7 +354,7 @@ def _positioning_setup(data: dict[str, Any], source: str, nc_checked: bool = Tru
         feed_per_min=feed, datum=datum, trigger=trigger, environment=environment, devices=devices,
         dialect=dialect, program_number=program_number,
         max_deviation=max_dev, simulation=simulation, long_axis=long_axis, tolerance=tolerance,
-        scenario=scenario, compensation=compensation, target_shift=shift, **text,
+        scenario=scenario, compensation=compensation, target_shift=shift, instruments=instruments, **text,
     )
     if explicit is not None:  # generated targets follow the rule by construction
         span = end - start if end is not None and axis_type == "linear" else None

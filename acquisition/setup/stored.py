@@ -35,6 +35,7 @@ def straightness_setup_from_run(meta: dict[str, Any]) -> StraightnessSetup:
             validation=ValidationSetup(**val),
             uncertainty=dict(s.get("uncertainty", {})),
             tolerance=dict(s.get("tolerance", {})),
+            instruments=[dict(i) for i in s.get("instruments", [])],
             auto=HandsFreeSetup(**s.get("auto", {})),
             machine=meta.get("machine", ""), axis=meta.get("axis", ""),
             operator=meta.get("operator", ""), notes=meta.get("notes", ""),

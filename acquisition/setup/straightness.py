@@ -16,6 +16,7 @@ from processing.geometry import BlockGeometry, DatumAngles
 from saved_runs.errors import SetupError
 from saved_runs.evaluation.limits import ValidationSetup
 from saved_runs.evaluation.tolerance import straightness_tolerance
+from saved_runs.store.instruments import instrument_tables
 from saved_runs.toml_file import TomlTable, naming_source, read_toml
 
 from .computed import Computed
@@ -125,6 +126,8 @@ class StraightnessSetup:
     notes: str = ""
     tolerance: dict[str, Any] = field(default_factory=dict)  # [tolerance], saved_runs.evaluation.tolerance
     scenario: str = ""  # [simulation] scenario: the file --simulate takes its effects from ("" = none)
+    # [[instrument]]: the calibrated instruments (saved_runs.store.instruments), run.json setup.instruments
+    instruments: list[dict[str, str]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.block_length_mm) and self.block_length_mm > 0):
@@ -168,6 +171,8 @@ class StraightnessSetup:
             out["uncertainty"] = dict(self.uncertainty)
         if self.tolerance:
             out["tolerance"] = dict(self.tolerance)
+        if self.instruments:
+            out["instruments"] = [dict(i) for i in self.instruments]
         return out
 
     def header(self) -> dict[str, Any]:
@@ -262,6 +267,7 @@ def _straightness_setup(data: dict[str, Any], source: str) -> StraightnessSetup:
     unc = top.table("uncertainty")
     uncertainty = {k: unc.get(k, float) for k in list(unc.data)}
     tolerance = straightness_tolerance(top.table("tolerance").data, source)
+    instruments = instrument_tables(top.get("instrument", list, None), source)
     sim = top.table("simulation")
     scenario = scenario_path(sim.get("scenario", str, ""), source)
     au = top.table("auto")
@@ -272,7 +278,8 @@ def _straightness_setup(data: dict[str, Any], source: str) -> StraightnessSetup:
     return StraightnessSetup(
         block_length_mm=length, stations=stations, geometry=geometry, devices=devices,  # type: ignore[arg-type]
         samples_per_reading=samples, return_pass=return_pass, warmup=warmup, validation=validation,
-        uncertainty=uncertainty, tolerance=tolerance, scenario=scenario, auto=auto, **text,
+        uncertainty=uncertainty, tolerance=tolerance, scenario=scenario, auto=auto, instruments=instruments,
+        **text,
     )
 
 

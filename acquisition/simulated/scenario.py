@@ -92,7 +92,7 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "scenario") -> Sce
     effects = effects_from_tables(data, kind, source, simulation=True)
     top.used.add("effect")
     if kind == "positioning":
-        setup_keys = ("axis", "trigger", "environment", "machine", "operator", "notes")
+        setup_keys = ("axis", "trigger", "environment", "machine", "operator", "notes", "instrument")
         setup_source = {"kind": "positioning", **{k: data[k] for k in setup_keys if k in data}}
         top.used.update(setup_keys)
         # the cycle is optional: acquire --simulate takes it from the set-up file
@@ -111,7 +111,7 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "scenario") -> Sce
         top.check_unknown()
         return Scenario(kind, effects, source, seed, positioning=setup, setup_source=setup_source, noise=noise,
                         conditions=conditions, motion=motion)
-    setup_keys = ("block", "geometry", "machine", "axis", "operator", "notes")
+    setup_keys = ("block", "geometry", "machine", "axis", "operator", "notes", "instrument")
     setup_source = {"kind": "straightness", **{k: data[k] for k in setup_keys if k in data}}
     top.used.update(setup_keys)
     if "geometry" not in setup_source:

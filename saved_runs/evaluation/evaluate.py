@@ -32,10 +32,10 @@ EVALUATORS: dict[str, Callable[..., Evaluation]] = {
 
 
 # The options each evaluator takes (command-line flags --method, --mc-trials, --k, --edition,
-# --accept-out-of-range).
+# --accept-out-of-range, --decision-rule).
 EVALUATOR_OPTIONS: dict[str, tuple[str, ...]] = {
-    "straightness": ("method", "mc_trials", "accept_out_of_range"),
-    "positioning": ("k", "edition", "accept_out_of_range"),
+    "straightness": ("method", "mc_trials", "accept_out_of_range", "decision_rule"),
+    "positioning": ("k", "edition", "accept_out_of_range", "decision_rule"),
 }
 
 

@@ -10,6 +10,7 @@ processing.iso230_2.EDITIONS.
 METHODS = ("exact", "first-order", "patent")
 EDITIONS = ("ISO 230-2:1997", "ISO 230-2:2006", "ISO 230-2:2014")
 
+DECISION_RULES = ("simple", "guard-band", "iso14253")  # saved_runs.evaluation.tolerance.DECISION_RULES
 DEFAULT_METHOD = "exact"  # processing.decoupling.DEFAULT_METHOD
 DEFAULT_EDITION = EDITIONS[-1]  # processing.iso230_2.DEFAULT_EDITION
 DEFAULT_K = 2.0  # ISO 230-2 coverage factor (saved_runs.evaluation.positioning)

@@ -26,7 +26,7 @@ from ..store.compensation import compensation_text, run_compensation
 from ..store.plan import check_positioning_points
 from ..store.reader import LoadedRun
 from .limits import OutOfRange, out_of_range, out_of_range_dict, print_out_of_range
-from .tolerance import Verdict, positioning_verdict, verdict_dict
+from .tolerance import DEFAULT_DECISION_RULE, Verdict, positioning_verdict, verdict_dict
 
 ARCSEC_PER_DEG = 3600.0
 UM_PER_MM = 1000.0
@@ -139,7 +139,8 @@ def positioning_deviations(run: LoadedRun) -> tuple[pd.DataFrame, str, Compensat
 
 
 def evaluate_positioning_run(run: LoadedRun, *, k: float = 2.0, edition: str = DEFAULT_EDITION,
-                             accept_out_of_range: bool = False) -> PositioningEvaluation:
+                             accept_out_of_range: bool = False,
+                             decision_rule: str = DEFAULT_DECISION_RULE) -> PositioningEvaluation:
     """Evaluate a loaded positioning run (ISO 230-2, VDI/DGQ 3441); readings further from their
     target than the set-up allows are refused unless ``accept_out_of_range``."""
     check_positioning_points(run)
@@ -151,6 +152,7 @@ def evaluate_positioning_run(run: LoadedRun, *, k: float = 2.0, edition: str = D
         raise RunFormatError(f"{run.path}: {exc}") from None
     per_target = result.per_target
     verdict = positioning_verdict(run.meta, f"{run.path}/run.json", result.axis, result.unit,
-                                  ([int(n) for n in per_target["n_up"]], [int(n) for n in per_target["n_down"]]))
+                                  ([int(n) for n in per_target["n_up"]], [int(n) for n in per_target["n_down"]]),
+                                  rule=decision_rule)
     return PositioningEvaluation(run, result, deviations, info, accepted, verdict)
 

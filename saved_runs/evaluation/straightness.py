@@ -22,7 +22,7 @@ from .limits import OutOfRange, out_of_range, out_of_range_dict, print_out_of_ra
 
 # the Monte Carlo defaults live in .options (no NumPy: the catalogue compares a summary's options with them)
 from .options import MC_SAMPLE_BUDGET, MC_TRIALS, default_mc_trials  # noqa: F401
-from .tolerance import Verdict, straightness_verdict, verdict_dict
+from .tolerance import DEFAULT_DECISION_RULE, Verdict, straightness_verdict, verdict_dict
 
 
 @dataclass(frozen=True)
@@ -129,8 +129,9 @@ def run_geometry(run: LoadedRun) -> BlockGeometry:
 
 def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, mc_trials: int | None = None,
                               mc_seed: int = 0, accept_out_of_range: bool = False,
-                              progress: Callable[[int, int], None] | None = None) -> StraightnessEvaluation:
-    """Evaluate a loaded straightness run.
+                              progress: Callable[[int, int], None] | None = None,
+                              decision_rule: str = DEFAULT_DECISION_RULE) -> StraightnessEvaluation:
+    """Evaluate a loaded straightness run (``decision_rule``: of the ``[tolerance]`` verdict, .tolerance).
 
     ``mc_trials``: Monte Carlo trials for the straightness uncertainty; 0 skips it, None takes
     :func:`default_mc_trials` of the number of points.  Values outside the set-up's validation
@@ -157,5 +158,5 @@ def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, m
         raise RunFormatError(f"{run.path}: {exc}") from exc
     u = result.uncertainty.to_dict().get("straightness", {}) if result.uncertainty is not None else {}
     verdict = straightness_verdict(run.meta, f"{run.path}/run.json", result.straightness_um(), u,
-                                   incomplete=gap_text(gaps) if gaps else "")
+                                   incomplete=gap_text(gaps) if gaps else "", rule=decision_rule)
     return StraightnessEvaluation(run, result, accepted, verdict, tuple(gaps))

@@ -197,8 +197,14 @@ def verdict_section(page: HtmlPage, verdict: Any, what: str) -> None:
     page.paragraph(f"Verdict: {verdict.result.upper()}" + (f": {why}" if why else ""), f"headline {cls}")
     if getattr(verdict, "incomplete", ""):  # a gap in the run: no PASS (saved_runs/store/plan.py)
         page.paragraph(f"Run incomplete: {verdict.incomplete}; the verdict cannot be PASS.", "note")
+    from ..evaluation.tolerance import DECISION_RULE_NAMES
+
+    rule = getattr(verdict, "rule", "simple")
+    page.paragraph(f"Decision rule: {rule} — {DECISION_RULE_NAMES.get(rule, rule)}.", "note")
     rows = [(c.quantity, c.value, c.tolerance, UNIT_LABELS.get(c.unit, c.unit), c.uncertainty,
-             c.result + (" (within U of the limit: not proven, ISO 14253-1)" if c.within_uncertainty else ""))
+             c.result + (" (within U of the limit: not proven, ISO 14253-1)" if c.within_uncertainty and
+                         rule == "simple" else "")
+             + (" (U of this value not known)" if c.result == "not decidable" and c.uncertainty is None else ""))
             for c in verdict.checks]
     page.table(("quantity", "value", "tolerance", "unit", "U, k = 2", "result"), rows, text_columns=(0, 3, 5))
 

@@ -10,6 +10,7 @@ written through a symbolic link, and inside a run a link where a file or folder 
 from __future__ import annotations
 
 import contextlib
+import datetime
 import errno
 import json
 import os
@@ -168,6 +169,13 @@ def write_text_atomic(path: Path | str, text: str, *, inside: Path | str | None 
     write_atomic(path, lambda f: f.write(data), inside=inside, make_parents=make_parents)
 
 
+def _iso_date(value: Any) -> str:
+    """A TOML date, date-time or time as ISO 8601 text (json's ``default``); anything else is refused."""
+    if isinstance(value, datetime.date | datetime.time):
+        return value.isoformat()
+    raise TypeError(f"Object of type {type(value).__name__} is not JSON serializable")
+
+
 def write_json_atomic(path: Path | str, obj: Any, *, inside: Path | str | None = None) -> None:
     """Replace ``path`` with ``obj`` as JSON (no NaN), atomically (:func:`write_atomic`).  Encoded
     piece by piece into the file: the summary of a 100 000-station run is never held as one string."""
@@ -175,7 +183,8 @@ def write_json_atomic(path: Path | str, obj: Any, *, inside: Path | str | None =
     def write(f: BinaryIO) -> None:
         pieces: list[str] = []
         size = 0
-        for piece in json.JSONEncoder(indent=2, allow_nan=False).iterencode(obj):  # as json.dumps(indent=2)
+        # as json.dumps(indent=2); TOML dates (a set-up's [[instrument]] in setup_source) as ISO 8601 text
+        for piece in json.JSONEncoder(indent=2, allow_nan=False, default=_iso_date).iterencode(obj):
             pieces.append(piece)
             size += len(piece)
             if size >= 1 << 16:

@@ -26,6 +26,7 @@ COMMAND_MODULES = (
     "sim",
     "devices",
     "report",
+    "certificate",
     "simulate",
     "diagnose",
     "compare",

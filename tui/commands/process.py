@@ -59,6 +59,8 @@ def evaluator_options(args: argparse.Namespace) -> dict[str, object]:
         opts["k"] = args.k
     if getattr(args, "edition", None) is not None:
         opts["edition"] = args.edition
+    if getattr(args, "decision_rule", None) is not None:
+        opts["decision_rule"] = args.decision_rule
     if getattr(args, "accept_out_of_range", False):
         opts["accept_out_of_range"] = True
     if args.mc_trials is not None:
@@ -72,7 +74,7 @@ def evaluator_options(args: argparse.Namespace) -> dict[str, object]:
 
 def add_evaluator_options(parser: argparse.ArgumentParser) -> None:
     """The evaluation options shared by ``process`` and ``report``."""
-    from saved_runs.evaluation.options import EDITIONS, METHODS
+    from saved_runs.evaluation.options import DECISION_RULES, EDITIONS, METHODS
 
     parser.add_argument("--method", choices=METHODS, default=None,
                         help="straightness decoupling method (default: exact; see docs/conventions.md)")
@@ -83,6 +85,10 @@ def add_evaluator_options(parser: argparse.ArgumentParser) -> None:
                         help="ISO 230-2 coverage factor for a positioning run (default 2)")
     parser.add_argument("--edition", choices=EDITIONS, default=None,
                         help="ISO 230-2 edition recorded for a positioning run (default ISO 230-2:2014)")
+    parser.add_argument("--decision-rule", choices=DECISION_RULES, default=None,
+                        help="how a value is decided against the set-up's [tolerance]: simple (ILAC-G8 simple "
+                             "acceptance, default), guard-band (w = U) or iso14253 (conforms / does not conform / "
+                             "not decidable); docs/certificate.md")
     parser.add_argument("--accept-out-of-range", action="store_true",
                         help="evaluate values outside the set-up's validation limits instead of refusing the "
                              "run (they are listed in the results and marked in the report)")

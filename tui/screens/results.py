@@ -149,6 +149,7 @@ class ResultsScreen(Screen):
                 Binding("d", "diagnose", "diagnose"),
                 Binding("pagedown", "scroll_values(1)", "scroll down", show=False),
                 Binding("pageup", "scroll_values(-1)", "scroll up", show=False),
+                Binding("p", "certificate", "certificate (PDF)", show=False),
                 Binding("f3", "app.runs", "runs"), Binding("f2", "app.setup", "set-up")]
 
     def __init__(self, run_dir: Path, note: str = "") -> None:
@@ -378,6 +379,19 @@ class ResultsScreen(Screen):
         from saved_runs.report.build import build_report
 
         self._written(lambda: build_report(self.run_dir, **self.options()))
+
+    @work(thread=True, group="files", exit_on_error=False)
+    def action_certificate(self) -> None:
+        """results/certificate.pdf with the screen's evaluation options (docs/certificate.md); a refusal is a
+        notice."""
+        from saved_runs.certificate.build import CertificateOptions, build_certificate
+
+        def write() -> Path:
+            (self.run_dir / "results").mkdir(exist_ok=True)
+            return build_certificate(self.run_dir, self.run_dir / "results" / "certificate.pdf",
+                                     CertificateOptions(evaluation=self.options()))  # as the screen evaluates
+
+        self._written(write)
 
     @work(thread=True, group="files", exit_on_error=False)
     def action_write(self) -> None:

@@ -1,0 +1,1 @@
+"""``guideway certificate``: the calibration certificate (PDF) of a saved run (docs/certificate.md)."""
