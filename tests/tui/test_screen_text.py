@@ -218,7 +218,8 @@ def test_results_show_the_files_written_and_keep_the_plot(tmp_path: Path) -> Non
 
     lines, plot_before, plot_after = asyncio.run(main())
     written = sorted(p.relative_to(run).as_posix() for p in (run / "results").iterdir())
-    assert len(written) == 5 and "results/report.html" in written
+    # the four tables, the report, and exports.json: which table was exported from this run (guideway verify)
+    assert len(written) == 6 and "results/report.html" in written and "results/exports.json" in written
     # the newest path is on the screen (relative to the run directory the title names), one line each
     assert any(ln.strip() == "written: results/report.html" for ln in lines)
     shown = [ln.strip().removeprefix("written: ") for ln in lines if ln.strip().startswith("written: ")]
