@@ -304,3 +304,26 @@ def test_simulated_world_reports_in_the_laser_frame(seed: int) -> None:
     assert abs(datum_angles_used(points, pitch_only).pitch_urad - datum["pitch"]) < 1e-3
     est = decouple(points, pitch_only, "exact")
     np.testing.assert_allclose(est["height_um"], truth[:, 1] * 1e3, rtol=0, atol=1e-4)
+
+
+def test_datum_pitch_estimate_when_the_first_readings_are_not_zero() -> None:
+    """A run that starts at x = 500 mm, with the interferometer zeroed at a pose a little off
+    the datum capture's (its channels at the datum read 0.3 mm, -0.2 mm, 0.1 mm, 30, -20,
+    45 urad): the datum angles are the zeroing pose's (rigid_body.simulate's datum_r), and the
+    estimate still finds its pitch within the premise bound (it missed it by the 45 urad
+    before it took the datum capture's own rotation out of the chord)."""
+    rec0, poses = recording()
+    ex, ey, ez, tx, ty, tz = poses[0]
+    zero = (ex + 30e-6, ey - 20e-6, ez + 45e-6, tx + 0.3, ty - 0.2, tz + 0.1)
+    rec = rigid_body.simulate(poses, P, E, DOWN, "height", L, laser=LASER, zero=zero, surf=curved)
+    points = pd.DataFrame(rec.rows).assign(x_mm=lambda d: d["x_mm"] + 500.0)
+    first = points.iloc[0]
+    assert abs(first["pitch_urad"] + 45.0) < 1.0 and abs(first["stry_um"]) > 100.0  # not zero
+    assert abs(rec.datum_urad["pitch"] - rec0.datum_urad["pitch"] - 45.0) < 1.0  # the zeroing pose's pitch
+    geom = geometry(rec, DOWN, roll=rec.datum_urad["roll"], yaw=rec.datum_urad["yaw"])
+    used = datum_angles_used(points, geom)
+    assert used.source["pitch"] == "estimated"
+    assert abs(used.pitch_urad - rec.datum_urad["pitch"]) <= premise_bound_urad(poses)
+    err = decouple(points, geom, "exact")["height_um"].to_numpy() - rec.truth[:, 1] * 1e3
+    bound = small_angle_bound_um(rec, DOWN, np.array([0.0, 0.0, premise_bound_urad(poses) * 1e-6]))
+    assert np.all(np.abs(err) <= bound * 1.02 + 2e-6)
