@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
@@ -32,6 +32,9 @@ class SimulatedClock:
         self._now = time.time() if start_s is None else start_s
         self._lock = threading.Lock()
         self.readings = 0
+        # called with the reading's number after each reading, in the thread that read: a simulated
+        # person acting "0.1 s later" acts at a reading, not after a wall-clock sleep of another thread
+        self.on_reading: Callable[[int], None] | None = None
 
     def now(self) -> float:
         with self._lock:
@@ -42,7 +45,10 @@ class SimulatedClock:
         with self._lock:
             self._now += self.step_s
             self.readings += 1
-            return self._now
+            now, n = self._now, self.readings
+        if self.on_reading is not None:
+            self.on_reading(n)
+        return now
 
 
 class _Time:
