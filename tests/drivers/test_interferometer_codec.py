@@ -98,3 +98,26 @@ def test_status_word_each_bit() -> None:
     code = next(c for c in regmap.error_codes if c)  # 0 = no error has no text in the status
     st = decode_status(0, 0, code, regmap)
     assert st.error_text == regmap.error_text(code) and st.error_text
+
+
+def test_decode_block_refuses_a_bad_register_it_does_not_decode() -> None:
+    """The spare register in front of the values is not decoded, yet 65536 there is no 16-bit register."""
+    regmap = load_register_map()
+    start = regmap["position_mm"].address - 1
+    regs = [0] * (1 + regmap["position_mm"].count)
+    assert decode_block(regs, start, ["position_mm"], regmap, "ABCD") == {"position_mm": 0.0}
+    for bad in (65536, -1, 0.5):
+        with pytest.raises(ProtocolError, match=rf"register block from {start} holds values that are not 16-bit"):
+            decode_block([bad, *regs[1:]], start, ["position_mm"], regmap, "ABCD")
+    assert decode_block([65535, *regs[1:]], start, ["position_mm"], regmap, "ABCD") == {"position_mm": 0.0}
+
+
+def test_the_message_names_the_first_four_bad_registers() -> None:
+    regmap = load_register_map()
+    start = regmap["position_mm"].address
+    with pytest.raises(ProtocolError) as info:
+        decode_block([70001, 70002, 70003, 70004, 70005], start, [], regmap, "ABCD")
+    assert str(info.value).endswith("[70001, 70002, 70003, 70004]")
+    with pytest.raises(ProtocolError) as info:
+        decode_value([70001, 70002, 70003, 70004, 70005], "FLOAT64")
+    assert str(info.value).endswith("[70001, 70002, 70003, 70004]")
