@@ -203,15 +203,23 @@ def test_estimated_pitch_alone_leaves_the_stated_bound(beam: np.ndarray) -> None
     assert np.max(np.abs(err)) < 0.6 * np.max(np.abs(old))
 
 
-def test_datum_pitch_estimate_scatters_as_its_stated_uncertainty() -> None:
-    """Noise on stry and the angles of the datum and first-step captures: the estimate's
-    standard deviation is sqrt(2 (u_str^2 + (xP^2 + zP^2) u_ang^2)) / L (derived here)."""
-    rec, _ = recording()
+@pytest.mark.parametrize("xp", [50.0, 20.0])
+def test_datum_pitch_estimate_scatters_as_its_stated_uncertainty(xp: float) -> None:
+    """Noise on stry and the angles of the datum and first-step captures: to first order L times the
+    estimate is (stry1 - stry0) - (ez1 - ez0) xP + (ex1 - ex0) zP - ez0 L (the chord turned back by
+    the datum capture's own pitch reading), so its standard deviation is
+    sqrt(2 u_str^2 + (xP^2 + (xP - L)^2 + 2 zP^2) u_ang^2) / L (derived here; at xP = L / 2 the two
+    pitch levers are equal, so a second mirror position tells them apart)."""
+    mirror = np.array([xp, P[1], P[2]])
+    _, poses = recording()
+    rec = rigid_body.simulate(poses, mirror, E, DOWN, "height", L, laser=LASER, surf=curved)
     points = pd.DataFrame(rec.rows)
     u = UncertaintyInputs(straightness_um=0.1, angle_urad=2.0, offset_mm=0.0)
-    expected = math.sqrt(2 * (0.1**2 + (P[0] ** 2 + P[2] ** 2) * (2.0e-3) ** 2)) / L * 1e3
+    lever = mirror[0] ** 2 + (mirror[0] - L) ** 2 + 2 * mirror[2] ** 2
+    expected = math.sqrt(2 * 0.1**2 + lever * (2.0e-3) ** 2) / L * 1e3
     ch = Channels.from_points(points)
-    assert datum_pitch_u_urad(ch, geometry(rec, DOWN), u) == pytest.approx(expected, rel=1e-12)
+    geom = BlockGeometry(tuple(mirror), tuple(rec.q), tuple(DOWN), "height")  # type: ignore[arg-type]
+    assert datum_pitch_u_urad(ch, geom, u) == pytest.approx(expected, rel=1e-12)
     rng = np.random.default_rng(5)
     m = 20_000
     shape = (m, len(points))
@@ -221,10 +229,10 @@ def test_datum_pitch_estimate_scatters_as_its_stated_uncertainty() -> None:
                      yaw_urad=ch.yaw_urad + rng.normal(0, 2.0, shape),
                      roll_urad=ch.roll_urad + rng.normal(0, 2.0, shape), sensor_mm=ch.sensor_mm,
                      first_step=ch.first_step)
-    est = np.asarray(estimate_datum_pitch(noisy, Setup.from_geometry(geometry(rec, DOWN)), 0.0, 0.0)) * 1e6
+    est = np.asarray(estimate_datum_pitch(noisy, Setup.from_geometry(geom), 0.0, 0.0)) * 1e6
     assert est.shape == (m, 1)
     assert np.std(est) == pytest.approx(expected, rel=0.03)  # 1/sqrt(2m) = 0.5 % standard error
-    assert abs(np.mean(est) - chord_pitch_urad(recording()[1])) < 5 * expected / math.sqrt(m) + 0.01
+    assert abs(np.mean(est) - chord_pitch_urad(poses)) < 5 * expected / math.sqrt(m) + 0.01
 
 
 def test_without_a_first_step_the_pitch_is_assumed_zero_and_said_so() -> None:
