@@ -136,10 +136,13 @@ def estimate_datum_pitch(ch: Channels, setup: Setup, ex0: np.ndarray | float,
 
     The block steps by its own length, so its rear-bottom-centre (the block
     origin O) at the first step lands where its front-bottom-centre was at the
-    datum: O1 - O0 points along the datum block's X axis, R0 (1, 0, 0) =
-    (cos ey cos ez, cos ey sin ez, -sin ey), whose pitch is atan2 of its Y and
-    X components whatever the roll and yaw.  O = P_laser - R P, so
-    ``O1 - O0 = (d1 - d0) - (dR1 - dR0) R0 P``; R0 holds the pitch sought,
+    datum: O1 - O0 points along the datum block's X axis.  The datum angles are
+    those of the pose at which the interferometer was zeroed (R0; every reading
+    is relative to it), and the datum capture stands at dR0 R0, where dR0 is its
+    own (small, non-zero) angle reading; so dR0^T (O1 - O0) points along
+    R0 (1, 0, 0) = (cos ey cos ez, cos ey sin ez, -sin ey), whose pitch is atan2
+    of its Y and X components whatever the roll and yaw.  O = P_laser + d - dR R0 P,
+    so ``O1 - O0 = (d1 - d0) - (dR1 - dR0) R0 P``; R0 holds the pitch sought,
     solved by fixed-point iteration from 0 (the term is second order).
     """
     i = ch.first_step
@@ -151,24 +154,29 @@ def estimate_datum_pitch(ch: Channels, setup: Setup, ex0: np.ndarray | float,
 
     dx = at(ch.x_mm, i) - at(ch.x_mm, 0) + (at(ch.lin_um, i) - at(ch.lin_um, 0)) * 1e-3
     dy = (at(ch.stry_um, i) - at(ch.stry_um, 0)) * 1e-3
-    r1 = _xy_rows(*(at(c, i) * 1e-6 for c in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad)))
-    r0 = _xy_rows(*(at(c, 0) * 1e-6 for c in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad)))
-    (m00, m01, m02), (m10, m11, m12) = ((a - b for a, b in zip(ra, rb, strict=True))
-                                        for ra, rb in zip(r1, r0, strict=True))  # dR1 - dR0, rows X and Y
+    dz = (at(ch.strz_um, i) - at(ch.strz_um, 0)) * 1e-3
+    r1 = _rows(*(at(c, i) * 1e-6 for c in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad)))
+    r0 = _rows(*(at(c, 0) * 1e-6 for c in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad)))
+    m = [[a - b for a, b in zip(ra, rb, strict=True)] for ra, rb in zip(r1, r0, strict=True)]  # dR1 - dR0
     wx, wy, wz = rotate(ex0, ey0, 0.0, setup.mirror)  # R0 P = Rz(ez0) w
     ez0: np.ndarray | float = 0.0
     for _ in range(DATUM_PITCH_ITERATIONS):
         c, s = np.cos(ez0), np.sin(ez0)
         px, py = c * wx - s * wy, s * wx + c * wy
-        ez0 = np.arctan2(dy - (m10 * px + m11 * py + m12 * wz), dx - (m00 * px + m01 * py + m02 * wz))
+        cx, cy, cz = (d - (row[0] * px + row[1] * py + row[2] * wz) for d, row in zip((dx, dy, dz), m, strict=True))
+        # dR0^T (O1 - O0): the columns X and Y of dR0 dotted with the chord
+        ux = r0[0][0] * cx + r0[1][0] * cy + r0[2][0] * cz
+        uy = r0[0][1] * cx + r0[1][1] * cy + r0[2][1] * cz
+        ez0 = np.arctan2(uy, ux)
     return ez0
 
 
-def _xy_rows(ex: np.ndarray, ey: np.ndarray, ez: np.ndarray) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
-    """The X and Y rows of R = Rz(ez) Ry(ey) Rx(ex)."""
+def _rows(ex: np.ndarray, ey: np.ndarray, ez: np.ndarray) -> tuple[tuple[np.ndarray, ...], ...]:
+    """The rows X, Y and Z of R = Rz(ez) Ry(ey) Rx(ex)."""
     cx, sx, cy, sy, cz, sz = np.cos(ex), np.sin(ex), np.cos(ey), np.sin(ey), np.cos(ez), np.sin(ez)
     return ((cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx),
-            (sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx))
+            (sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx),
+            (-sy, cy * sx, cy * cx))
 
 
 def datum_angles_rad(ch: Channels, setup: Setup) -> tuple[np.ndarray | float, np.ndarray | float,

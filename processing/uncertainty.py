@@ -136,10 +136,10 @@ def profile_slope(x_mm: np.ndarray, h_um: np.ndarray) -> np.ndarray:
 def datum_pitch_u_urad(ch: Channels, geometry: BlockGeometry, inputs: UncertaintyInputs) -> float | None:
     """Standard uncertainty (urad) of the datum pitch estimated from the first step (None without one).
 
-    The estimate is the direction of O1 - O0 (docs/conventions.md); to first
-    order its Y component is (stry1 - stry0) - (ez1 - ez0) xP + (ex1 - ex0) zP
-    (two independent captures of each channel; xP and zP known to offset_mm)
-    and its X component the step L, so u = u(Y) / L.
+    The estimate is the pitch of dR0^T (O1 - O0) (docs/conventions.md); to first
+    order L times it is (stry1 - stry0) - (ez1 - ez0) xP + (ex1 - ex0) zP - ez0 L
+    (two independent captures of each channel; xP and zP known to offset_mm), so
+    u = sqrt(2 u_str^2 + (xP^2 + (xP - L)^2 + 2 zP^2) u_ang^2 + ...) / L.
     """
     i = ch.first_step
     if i is None:
@@ -147,7 +147,8 @@ def datum_pitch_u_urad(ch: Channels, geometry: BlockGeometry, inputs: Uncertaint
     xp, _, zp = geometry.mirror_mm
     step_mm = float(ch.x_mm[i] - ch.x_mm[0])
     dez, dex = (float(a[i] - a[0]) * 1e-3 for a in (ch.pitch_urad, ch.roll_urad))
-    var_um2 = (2.0 * inputs.straightness_um**2 + 2.0 * (xp**2 + zp**2) * (inputs.angle_urad * 1e-3) ** 2
+    lever_mm2 = xp**2 + (xp - step_mm) ** 2 + 2.0 * zp**2  # ez1: xP; ez0: xP - L (the chord turned back by ez0)
+    var_um2 = (2.0 * inputs.straightness_um**2 + lever_mm2 * (inputs.angle_urad * 1e-3) ** 2
                + (dez**2 + dex**2) * inputs.offset_mm**2)
     return math.sqrt(var_um2) / abs(step_mm) * 1e3 if step_mm else None
 

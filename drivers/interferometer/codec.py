@@ -14,12 +14,13 @@ from pymodbus.client import ModbusTcpClient
 
 from ..errors import ProtocolError
 from ..readings import ControllerStatus
-from .register_map import RegisterMap
+from .register_map import REGISTER_WIDTH, RegisterMap
 
 WORD_ORDERS = {"ABCD": "big", "CDAB": "little"}
 _DT = ModbusTcpClient.DATATYPE
 _TYPES = {"UINT16": _DT.UINT16, "INT16": _DT.INT16, "UINT32": _DT.UINT32,
           "FLOAT32": _DT.FLOAT32, "FLOAT64": _DT.FLOAT64}
+_INT_RANGES = {"UINT16": (0, 0xFFFF), "INT16": (-0x8000, 0x7FFF), "UINT32": (0, 0xFFFFFFFF)}
 
 
 def check_word_order(word_order: str) -> str:
@@ -29,9 +30,19 @@ def check_word_order(word_order: str) -> str:
 
 
 def decode_value(registers: Sequence[int], type_name: str, word_order: str = "ABCD") -> float:
-    """Decode one value of ``type_name`` from its registers."""
+    """Decode one value of ``type_name`` from its registers.
+
+    Raises :class:`ProtocolError` when a register is not a 16-bit value (0 … 65535) or the
+    count does not fit the type (a device or link fault, not a bug of the caller).
+    """
     order = WORD_ORDERS[check_word_order(word_order)]
-    value = ModbusTcpClient.convert_from_registers(list(registers), _TYPES[type_name], word_order=order)
+    regs = list(registers)
+    bad = [r for r in regs if not (isinstance(r, int) and 0 <= r <= 0xFFFF)]
+    if bad:
+        raise ProtocolError(f"{type_name} value from registers that are not 16-bit registers: {bad[:4]}")
+    if len(regs) != REGISTER_WIDTH[type_name]:
+        raise ProtocolError(f"{type_name} value needs {REGISTER_WIDTH[type_name]} register(s), got {len(regs)}")
+    value = ModbusTcpClient.convert_from_registers(regs, _TYPES[type_name], word_order=order)
     return float(value)  # type: ignore[arg-type]
 
 
@@ -39,7 +50,10 @@ def encode_value(value: float, type_name: str, word_order: str = "ABCD") -> list
     """Encode one value of ``type_name`` into registers."""
     order = WORD_ORDERS[check_word_order(word_order)]
     dtype = _TYPES[type_name]
-    v: float | int = int(value) if type_name in ("UINT16", "INT16", "UINT32") else float(value)
+    v: float | int = int(value) if type_name in _INT_RANGES else float(value)
+    if type_name in _INT_RANGES and not _INT_RANGES[type_name][0] <= v <= _INT_RANGES[type_name][1]:
+        lo, hi = _INT_RANGES[type_name]
+        raise ValueError(f"{value!r} does not fit a {type_name} register value ({lo} … {hi})")
     return ModbusTcpClient.convert_to_registers(v, dtype, word_order=order)
 
 

@@ -105,12 +105,15 @@ def test_a_beam_still_blocked_is_not_captured_the_run_waits_for_it(tmp_path: Pat
     assert len(run.meta["faults"]) == 2
 
 
-# -- slow controllers (the 2.5 s per measurement, scaled by 0.04) ------------------------------
-SLOW = "controller:slow@1=0.1"
+# -- slow controllers (the 2.5 s per measurement, scaled by 0.12) ------------------------------
+# The deadlines leave a loaded machine at least 0.7 s beyond the measurement for the polls that see it
+# complete (a 0.1 s margin let a stalled poll fail the run); the second still needs its retries
+# (0.25 s < 0.3 s, 4 x 0.25 s > 0.3 s).
+SLOW = "controller:slow@1=0.3"
 
 
-@pytest.mark.parametrize("controller", [{"trigger_timeout_s": 0.2, "trigger_retries": 0},
-                                        {"trigger_timeout_s": 0.08, "trigger_retries": 2}])
+@pytest.mark.parametrize("controller", [{"trigger_timeout_s": 1.5, "trigger_retries": 0},
+                                        {"trigger_timeout_s": 0.25, "trigger_retries": 3}])
 def test_a_slow_controller_completes_the_run_with_its_set_up_keys(tmp_path: Path, controller: dict) -> None:
     setup = straightness(controller=controller)
     res = run_straightness(setup, tmp_path / "run", simulate=SimOptions(seed=1, noise=False, faults=SLOW),

@@ -7,7 +7,6 @@ station on its own once the previous point is on disk."""
 from __future__ import annotations
 
 import io
-import threading
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
@@ -22,8 +21,8 @@ from acquisition.simulated.rig import SimulatedRig, start_simulated_rig
 from drivers.readings import ControllerStatus, InterferometerReading
 from saved_runs.store.reader import load_run
 
-from ..waiting import wait_for
 from .plan_driver import Scripted, drive
+from .sim_clock import simulated_clock
 from .test_controller_recovery import straightness
 
 OK = ControllerStatus(True, False, True, False, True, 1, 0, "", 0b10101)
@@ -34,8 +33,8 @@ def setup(stations: int, **auto: float) -> StraightnessSetup:
                                         **auto})
 
 
-# the end-to-end runs: the block must rest for 0.8 s, eight times the technician's 0.1 s steps, so that
-# a stall of a loaded machine does not pass a step for rest
+# the end-to-end runs: the block must rest for 0.8 s (16 readings of the simulated clock), eight times
+# the technician's 0.1 s steps
 STILL = {"still_s": 0.8, "poll_s": 0.05}
 
 
@@ -64,19 +63,34 @@ def test_the_plan_waits_for_the_block_at_the_station_and_still() -> None:
 
 
 # -- end to end against the simulated rig, opened as real devices -----------------------------------------
-def slide_technician(sim: SimulatedRig, points: Path, stations: int, stop: threading.Event) -> None:
-    """Waits until station k's point is on disk, then slides the block to station k + 1 in steps
-    (1.5, 0.8, 0.3 mm short of it, 0.1 s apart) and lets go."""
-    for k in range(stations - 1):
-        wait_for(lambda k=k: stop.is_set() or (points.exists() and len(points.read_text().splitlines()) >= k + 2),
-                 timeout_s=30, what=f"station {k} on disk")
-        if stop.wait(0.15):
+class SlideTechnician:
+    """Once station k's point is on disk, slides the block to station k + 1 in steps (1.5, 0.8, 0.3 mm
+    short of it, 0.1 s apart, after 0.15 s) and lets go.  It acts at the interferometer readings of a
+    simulated clock of one poll (0.05 s) per reading (tests/acquisition/sim_clock.py), so a stall of a
+    loaded machine cannot turn a step into a rest of 0.8 s."""
+
+    STEPS = {3: 1.5, 5: 0.8, 7: 0.3, 9: 0.0}  # readings after the point was on disk -> mm short (0: let go)
+
+    def __init__(self, sim: SimulatedRig, points: Path, stations: int) -> None:
+        self.sim, self.points, self.stations = sim, points, stations
+        self.k = 0  # the station the block rests at (or is being slid from)
+        self.seen: int | None = None  # the reading at which station k's point was found on disk
+
+    def __call__(self, n: int) -> None:
+        if self.k >= self.stations - 1:
             return
-        for offset in (1.5, 0.8, 0.3):
-            sim.world.place_block(k + 1, offset_mm=offset)
-            if stop.wait(0.1):
-                return
-        sim.place_block(k + 1)
+        if self.seen is None:
+            if self.points.exists() and len(self.points.read_text().splitlines()) >= self.k + 2:
+                self.seen = n
+            return
+        offset = self.STEPS.get(n - self.seen)
+        if offset is None:
+            return
+        if offset:
+            self.sim.world.place_block(self.k + 1, offset_mm=offset)
+        else:
+            self.sim.place_block(self.k + 1)
+            self.k, self.seen = self.k + 1, None
 
 
 @pytest.fixture
@@ -90,19 +104,16 @@ def with_devices(s: StraightnessSetup, sim: SimulatedRig) -> StraightnessSetup:
     return replace(s, devices=replace(s.devices, sensor_url=sim.sensor_url, controller_url=sim.controller_url))
 
 
-def test_hands_free_run_captures_each_station_once_the_block_rests_there(tmp_path: Path, rig: SimulatedRig
-                                                                        ) -> None:
+def test_hands_free_run_captures_each_station_once_the_block_rests_there(
+        tmp_path: Path, rig: SimulatedRig, monkeypatch: pytest.MonkeyPatch) -> None:
     stations = 4
     out = tmp_path / "run"
-    stop = threading.Event()
-    tech = threading.Thread(target=slide_technician, args=(rig, out / "points.csv", stations, stop), daemon=True)
-    tech.start()
     stream = io.StringIO()
-    try:
+    tech = SlideTechnician(rig, out / "points.csv", stations)
+    with simulated_clock(monkeypatch, step_s=STILL["poll_s"]) as clock:
+        clock.on_reading = tech
         res = run_straightness(with_devices(setup(stations, **STILL), rig), out, auto=True, stream=stream)
-    finally:
-        stop.set()
-        tech.join(timeout=10)
+    assert tech.k == stations - 1  # every slide was made
     assert res.outcome.exit_status == "success", res.outcome.reason
     run = load_run(out)
     pts = run.points

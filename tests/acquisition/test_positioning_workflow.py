@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import re
+import time
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,7 @@ from acquisition.setup.positioning import (
     TriggerSetup,
     positioning_setup_from_dict,
 )
+from drivers.interferometer import InterferometerController
 from drivers.readings import ControllerStatus, InterferometerReading
 from processing.air_index import air_index
 from processing.columns import POSITIONING_LINEAR, POSITIONING_ROTARY
@@ -30,6 +32,7 @@ from saved_runs.errors import SetupError
 from saved_runs.store.reader import load_run
 
 from .plan_driver import Scripted, drive
+from .sim_clock import simulated_clock
 
 ROOT = Path(__file__).resolve().parents[2]
 OK = ControllerStatus(True, False, True, False, True, 1, 0, "", 0b10101)
@@ -224,15 +227,30 @@ def test_rotary_manual_run(tmp_path: Path) -> None:
     np.testing.assert_allclose(run.points["reading_deg"], truth, atol=1e-9)
 
 
-def test_stability_trigger_run(tmp_path: Path) -> None:
-    # a dwell long enough that a loaded CI machine still gets two readings half a dwell apart; readings
-    # compensated by the controller, so a point's reading is the simulated axis position itself
+def test_stability_trigger_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the axis's dwell and the readings' timestamps on one simulated clock that moves one poll per reading
+    # (tests/acquisition/sim_clock.py): the axis stays at a target for 40 readings, the plan needs the
+    # position still over 20 of them, however slowly a loaded machine takes them.  Readings compensated by
+    # the controller, so a point's reading is the simulated axis position itself
     src = example(axis={"end_mm": 400.0, "runs": 1}, environment={"readings_compensated": True},
-                  trigger={"mode": "stability", "dwell_s": 0.4, "poll_s": 0.01, "timeout_s": 10.0})
+                  trigger={"mode": "stability", "dwell_s": 0.4, "poll_s": 0.01, "timeout_s": 60.0})
     s = positioning_setup_from_dict(src)
-    res = run_positioning(s, tmp_path / "run", simulate=SimOptions(seed=3, noise=False), auto=True,
-                          stream=io.StringIO())
+    # and a starved CPU, made certain: three readings are held up longer than the whole dwell
+    # (at the wall clock the axis would have left those stops unseen: "a stop was missed")
+    read, taken = InterferometerController._read_consistent, []
+
+    def held_up(self: InterferometerController, st: Any) -> Any:
+        taken.append(1)
+        if len(taken) in (5, 30, 95):
+            time.sleep(2 * s.trigger.dwell_s)
+        return read(self, st)
+
+    monkeypatch.setattr(InterferometerController, "_read_consistent", held_up)
+    with simulated_clock(monkeypatch, step_s=s.trigger.poll_s) as clock:
+        res = run_positioning(s, tmp_path / "run", simulate=SimOptions(seed=3, noise=False), auto=True,
+                              stream=io.StringIO())
     assert res.outcome.exit_status == "success", res.outcome.reason
+    assert clock.readings > 20 * len(s.measured_stops()) and len(taken) > 95  # the simulated clock ran the dwell
     run = load_run(tmp_path / "run")
     pts = run.points
     assert len(pts) == 2 * len(s.targets) and not run.meta.get("skipped")

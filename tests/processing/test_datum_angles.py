@@ -203,15 +203,23 @@ def test_estimated_pitch_alone_leaves_the_stated_bound(beam: np.ndarray) -> None
     assert np.max(np.abs(err)) < 0.6 * np.max(np.abs(old))
 
 
-def test_datum_pitch_estimate_scatters_as_its_stated_uncertainty() -> None:
-    """Noise on stry and the angles of the datum and first-step captures: the estimate's
-    standard deviation is sqrt(2 (u_str^2 + (xP^2 + zP^2) u_ang^2)) / L (derived here)."""
-    rec, _ = recording()
+@pytest.mark.parametrize("xp", [50.0, 20.0])
+def test_datum_pitch_estimate_scatters_as_its_stated_uncertainty(xp: float) -> None:
+    """Noise on stry and the angles of the datum and first-step captures: to first order L times the
+    estimate is (stry1 - stry0) - (ez1 - ez0) xP + (ex1 - ex0) zP - ez0 L (the chord turned back by
+    the datum capture's own pitch reading), so its standard deviation is
+    sqrt(2 u_str^2 + (xP^2 + (xP - L)^2 + 2 zP^2) u_ang^2) / L (derived here; at xP = L / 2 the two
+    pitch levers are equal, so a second mirror position tells them apart)."""
+    mirror = np.array([xp, P[1], P[2]])
+    _, poses = recording()
+    rec = rigid_body.simulate(poses, mirror, E, DOWN, "height", L, laser=LASER, surf=curved)
     points = pd.DataFrame(rec.rows)
     u = UncertaintyInputs(straightness_um=0.1, angle_urad=2.0, offset_mm=0.0)
-    expected = math.sqrt(2 * (0.1**2 + (P[0] ** 2 + P[2] ** 2) * (2.0e-3) ** 2)) / L * 1e3
+    lever = mirror[0] ** 2 + (mirror[0] - L) ** 2 + 2 * mirror[2] ** 2
+    expected = math.sqrt(2 * 0.1**2 + lever * (2.0e-3) ** 2) / L * 1e3
     ch = Channels.from_points(points)
-    assert datum_pitch_u_urad(ch, geometry(rec, DOWN), u) == pytest.approx(expected, rel=1e-12)
+    geom = BlockGeometry(tuple(mirror), tuple(rec.q), tuple(DOWN), "height")  # type: ignore[arg-type]
+    assert datum_pitch_u_urad(ch, geom, u) == pytest.approx(expected, rel=1e-12)
     rng = np.random.default_rng(5)
     m = 20_000
     shape = (m, len(points))
@@ -221,10 +229,10 @@ def test_datum_pitch_estimate_scatters_as_its_stated_uncertainty() -> None:
                      yaw_urad=ch.yaw_urad + rng.normal(0, 2.0, shape),
                      roll_urad=ch.roll_urad + rng.normal(0, 2.0, shape), sensor_mm=ch.sensor_mm,
                      first_step=ch.first_step)
-    est = np.asarray(estimate_datum_pitch(noisy, Setup.from_geometry(geometry(rec, DOWN)), 0.0, 0.0)) * 1e6
+    est = np.asarray(estimate_datum_pitch(noisy, Setup.from_geometry(geom), 0.0, 0.0)) * 1e6
     assert est.shape == (m, 1)
     assert np.std(est) == pytest.approx(expected, rel=0.03)  # 1/sqrt(2m) = 0.5 % standard error
-    assert abs(np.mean(est) - chord_pitch_urad(recording()[1])) < 5 * expected / math.sqrt(m) + 0.01
+    assert abs(np.mean(est) - chord_pitch_urad(poses)) < 5 * expected / math.sqrt(m) + 0.01
 
 
 def test_without_a_first_step_the_pitch_is_assumed_zero_and_said_so() -> None:
@@ -304,3 +312,26 @@ def test_simulated_world_reports_in_the_laser_frame(seed: int) -> None:
     assert abs(datum_angles_used(points, pitch_only).pitch_urad - datum["pitch"]) < 1e-3
     est = decouple(points, pitch_only, "exact")
     np.testing.assert_allclose(est["height_um"], truth[:, 1] * 1e3, rtol=0, atol=1e-4)
+
+
+def test_datum_pitch_estimate_when_the_first_readings_are_not_zero() -> None:
+    """A run that starts at x = 500 mm, with the interferometer zeroed at a pose a little off
+    the datum capture's (its channels at the datum read 0.3 mm, -0.2 mm, 0.1 mm, 30, -20,
+    45 urad): the datum angles are the zeroing pose's (rigid_body.simulate's datum_r), and the
+    estimate still finds its pitch within the premise bound (it missed it by the 45 urad
+    before it took the datum capture's own rotation out of the chord)."""
+    rec0, poses = recording()
+    ex, ey, ez, tx, ty, tz = poses[0]
+    zero = (ex + 30e-6, ey - 20e-6, ez + 45e-6, tx + 0.3, ty - 0.2, tz + 0.1)
+    rec = rigid_body.simulate(poses, P, E, DOWN, "height", L, laser=LASER, zero=zero, surf=curved)
+    points = pd.DataFrame(rec.rows).assign(x_mm=lambda d: d["x_mm"] + 500.0)
+    first = points.iloc[0]
+    assert abs(first["pitch_urad"] + 45.0) < 1.0 and abs(first["stry_um"]) > 100.0  # not zero
+    assert abs(rec.datum_urad["pitch"] - rec0.datum_urad["pitch"] - 45.0) < 1.0  # the zeroing pose's pitch
+    geom = geometry(rec, DOWN, roll=rec.datum_urad["roll"], yaw=rec.datum_urad["yaw"])
+    used = datum_angles_used(points, geom)
+    assert used.source["pitch"] == "estimated"
+    assert abs(used.pitch_urad - rec.datum_urad["pitch"]) <= premise_bound_urad(poses)
+    err = decouple(points, geom, "exact")["height_um"].to_numpy() - rec.truth[:, 1] * 1e3
+    bound = small_angle_bound_um(rec, DOWN, np.array([0.0, 0.0, premise_bound_urad(poses) * 1e-6]))
+    assert np.all(np.abs(err) <= bound * 1.02 + 2e-6)

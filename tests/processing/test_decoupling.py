@@ -74,3 +74,12 @@ def test_patent_eq17_is_minus_our_height_for_a_gap_reading() -> None:
     ours = decouple_first_order(points, BlockGeometry(tuple(P), tuple(q), tuple(B), "gap"))["height_um"]  # type: ignore[arg-type]
     np.testing.assert_allclose(dygx, -ours.to_numpy(), atol=1e-9)
     np.testing.assert_allclose(dygx, -truth, atol=2e-3)
+
+
+@pytest.mark.parametrize("method", ["exact", "first-order", "patent"])
+def test_an_empty_run_is_refused(method: str) -> None:
+    from processing.decoupling import CHANNEL_COLUMNS, decouple_run
+
+    empty = pd.DataFrame({c: [] for c in ("station", "pass", *CHANNEL_COLUMNS)})
+    with pytest.raises(ValueError, match="no points to process"):
+        decouple_run(empty, BlockGeometry(tuple(P), tuple(E), tuple(B), "height"), method)  # type: ignore[arg-type]
