@@ -297,9 +297,9 @@ def minimum_zone_many(x: np.ndarray, h_rows: np.ndarray) -> np.ndarray:
     the candidate of least width gives the zone.
     """
     x, h_rows = np.asarray(x, dtype=float), np.atleast_2d(np.asarray(h_rows, dtype=float))
-    _check(x, h_rows[0] if len(h_rows) else x, 2)
-    if h_rows.ndim != 2 or h_rows.shape[1] != len(x):
+    if h_rows.ndim != 2 or x.ndim != 1 or h_rows.shape[1] != len(x):
         raise ValueError("h_rows must have one column per x")
+    _check(x, x, 2)
     if not np.all(np.isfinite(h_rows)):
         raise ValueError("x and h must be finite")
     if np.all(x == x[0]):
