@@ -8,7 +8,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
 
 @dataclass(frozen=True)
@@ -128,6 +127,8 @@ def _qhull_candidates(x: np.ndarray, z: np.ndarray) -> np.ndarray:
     span_x, span_z = np.ptp(x), np.ptp(z)
     if span_z == 0:
         return np.array([0, len(x) - 1])
+    from scipy.spatial import ConvexHull, QhullError  # here: scipy.spatial takes ~0.1 s to import, rarely needed
+
     pts = np.column_stack([(x - x[0]) / span_x, (z - z.min()) / span_z])  # affine: same hull
     try:
         return np.sort(ConvexHull(pts).vertices)  # type: ignore[no-any-return]
