@@ -28,8 +28,9 @@ def legend_above_data(ax: Axes, *, ncol: int = 1) -> None:
     legend = ax.legend(fontsize=8, loc="upper left", ncol=ncol)
     fig = ax.figure
     fig.tight_layout()  # measure in the final layout (the caller lays out again afterwards)
-    fig.canvas.draw()
-    bottom = legend.get_window_extent().transformed(ax.transAxes.inverted()).y0  # axes fraction
+    # the legend's box from the renderer, without drawing the figure (a draw costs as much as the save)
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    bottom = legend.get_window_extent(renderer).transformed(ax.transAxes.inverted()).y0  # axes fraction
     frac = max(bottom - 0.03, 0.35)  # where the current top of the data may go
     lo, hi = ax.get_ylim()
     ax.set_ylim(lo, lo + (hi - lo) / frac)
