@@ -244,24 +244,17 @@ def _record_points(x: np.ndarray, r: np.ndarray) -> np.ndarray:
     be upper-hull vertices: exact, it only saves work.
 
     A point lower than some point on its left and some point on its right lies below the chord of
-    those two, so it is no hull vertex; a shear r - t x keeps the hull's vertices, so a point must
-    be a running maximum from the left or from the right under every shear tried (the end-point
-    slope and that slope plus or minus the row's spread over the span).  The tolerance keeps a
-    vertex whose sheared value rounds below a record.
+    those two, so it is no hull vertex.  A shear r - t x keeps the hull's vertices; with t the
+    end-point slope a tilted profile keeps few such running maxima (from the left or from the
+    right).  The tolerance keeps a vertex whose sheared value rounds below a record.
     """
     span = float(x[-1] - x[0])
     rt = np.ascontiguousarray(r.T)  # (n, m): the running maxima then run along contiguous rows of trials
-    xt = x[:, None]
-    base = rt - ((rt[-1] - rt[0]) / span)[None, :] * xt
-    spread = np.ptp(base, axis=0) / span
-    keep = np.ones(rt.shape, dtype=bool)
-    for c in (0.0, -1.0, 1.0):
-        rc = base - (c * spread)[None, :] * xt if c else base.copy()
-        left = np.maximum.accumulate(rc, axis=0)
-        right = np.maximum.accumulate(rc[::-1], axis=0)[::-1]
-        rc += 1e-12 * (np.max(np.abs(rc), axis=0) + 1.0)  # the tolerance
-        keep &= (rc >= left) | (rc >= right)
-    keep = keep.T
+    rc = rt - ((rt[-1] - rt[0]) / span)[None, :] * x[:, None]
+    left = np.maximum.accumulate(rc, axis=0)
+    right = np.maximum.accumulate(rc[::-1], axis=0)[::-1]
+    rc += 1e-12 * (np.max(np.abs(rc), axis=0) + 1.0)  # the tolerance
+    keep = ((rc >= left) | (rc >= right)).T
     return keep
 
 
