@@ -8,7 +8,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
 
 @dataclass(frozen=True)
@@ -128,6 +127,8 @@ def _qhull_candidates(x: np.ndarray, z: np.ndarray) -> np.ndarray:
     span_x, span_z = np.ptp(x), np.ptp(z)
     if span_z == 0:
         return np.array([0, len(x) - 1])
+    from scipy.spatial import ConvexHull, QhullError  # here: scipy.spatial takes ~0.1 s to import, rarely needed
+
     pts = np.column_stack([(x - x[0]) / span_x, (z - z.min()) / span_z])  # affine: same hull
     try:
         return np.sort(ConvexHull(pts).vertices)  # type: ignore[no-any-return]
@@ -188,27 +189,153 @@ def minimum_zone_line(x: np.ndarray, h: np.ndarray) -> LineFit:
     return _fit("minimum_zone", x, h, b, (float(r.max()) + float(r.min())) / 2)
 
 
-def minimum_zone_many(x: np.ndarray, h_rows: np.ndarray, pair_limit: int = 40) -> np.ndarray:
-    """Minimum-zone straightness of every row of ``h_rows`` (shape (m, n)) at the same x.
+def _hull_rows(x: np.ndarray, z: np.ndarray, upper: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Upper (or lower) convex hull of every row of ``z`` (shape (m, n)) at the strictly increasing ``x``,
+    in array form: (x, z, count) with each row's hull vertices left-aligned in increasing x (the
+    entries at and after its count are padding).
 
-    For n <= ``pair_limit`` points it evaluates the zone width at every
-    point-pair slope at once (the breakpoints of the convex, piecewise-linear
-    width function include its minimum: exact, vectorised over rows); above
-    that, :func:`minimum_zone_line` row by row.
+    Rounds of elimination, vectorised over rows: a point on or below (above) the chord of its two
+    surviving neighbours is no strict hull vertex (the chord joins two points of the set), so all
+    such points of every row go at once; the survivors are packed to the left and the next round
+    runs on them.  When a round removes nothing every interior point is strictly convex: the
+    survivors are the hull, collinear points dropped (the vertex set :func:`_chain` returns).  The
+    turn test is _chain's cross product on the same three points.
     """
-    x = np.asarray(x, dtype=float)
-    h_rows = np.atleast_2d(np.asarray(h_rows, dtype=float))
-    n = len(x)
-    if n > pair_limit:
-        return np.array([minimum_zone_line(x, row).straightness_um for row in h_rows])
-    i, j = np.triu_indices(n, 1)
-    keep = x[j] != x[i]
-    i, j = i[keep], j[keep]
+    m, n = z.shape
+    sign = 1.0 if upper else -1.0
+    keep = _record_points(x, sign * z)
+    count = keep.sum(axis=1)
+    xs, zs = _pack(np.broadcast_to(x, (m, n)), z, keep, count)
+    while xs.shape[1] > 2:
+        xa, xb, xi = xs[:, :-2], xs[:, 1:-1], xs[:, 2:]
+        za, zb, zi = zs[:, :-2], zs[:, 1:-1], zs[:, 2:]
+        cross = (xb - xa) * (zi - za) - (zb - za) * (xi - xa)
+        k = np.arange(1, xs.shape[1] - 1)
+        drop = (sign * cross >= 0) & (k[None, :] <= count[:, None] - 2)
+        if not drop.any():
+            break
+        keep = np.ones(xs.shape, dtype=bool)
+        keep[:, 1:-1] = ~drop
+        keep &= np.arange(xs.shape[1])[None, :] < count[:, None]
+        count = keep.sum(axis=1)
+        xs, zs = _pack(xs, zs, keep, count)
+    return xs, zs, count
+
+
+def _pack(xs: np.ndarray, zs: np.ndarray, keep: np.ndarray, count: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The kept entries of each row moved to the left, in order; each row padded with its last kept point."""
+    m = len(xs)
+    width = int(count.max())
+    pos = np.cumsum(keep, axis=1) - 1
+    last = np.arange(m), count - 1
+    r, c = np.nonzero(keep)
+    nx = np.zeros((m, width))
+    nz = np.zeros((m, width))
+    nx[r, pos[r, c]] = xs[r, c]
+    nz[r, pos[r, c]] = zs[r, c]
+    pad = np.arange(width)[None, :] >= count[:, None]
+    nx = np.where(pad, nx[last][:, None], nx)
+    nz = np.where(pad, nz[last][:, None], nz)
+    return nx, nz
+
+
+def _record_points(x: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Mask of the points of each row of ``r`` (shape (m, n), strictly increasing shared ``x``) that can
+    be upper-hull vertices: exact, it only saves work.
+
+    A point lower than some point on its left and some point on its right lies below the chord of
+    those two, so it is no hull vertex.  A shear r - t x keeps the hull's vertices; with t the
+    end-point slope a tilted profile keeps few such running maxima (from the left or from the
+    right).  The tolerance keeps a vertex whose sheared value rounds below a record.
+    """
+    span = float(x[-1] - x[0])
+    rt = np.ascontiguousarray(r.T)  # (n, m): the running maxima then run along contiguous rows of trials
+    rc = rt - ((rt[-1] - rt[0]) / span)[None, :] * x[:, None]
+    left = np.maximum.accumulate(rc, axis=0)
+    right = np.maximum.accumulate(rc[::-1], axis=0)[::-1]
+    rc += 1e-12 * (np.max(np.abs(rc), axis=0) + 1.0)  # the tolerance
+    keep = ((rc >= left) | (rc >= right)).T
+    return keep
+
+
+def _count_below(sorted_rows: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Per row, how many entries of the row of ``sorted_rows`` (increasing, shape (m, e)) are < each
+    entry of that row of ``q`` (shape (m, k)): np.searchsorted(row, q_row, side="left"), vectorised
+    over rows by a binary search run in step on all of them."""
+    m, e = sorted_rows.shape
+    lo = np.zeros(q.shape, dtype=np.intp)
+    hi = np.full(q.shape, e, dtype=np.intp)
+    rows = np.arange(m)[:, None]
+    while True:
+        active = lo < hi
+        if not active.any():
+            return lo
+        mid = (lo + hi) // 2
+        below = sorted_rows[rows, np.minimum(mid, e - 1)] < q
+        lo = np.where(active & below, mid + 1, lo)
+        hi = np.where(active & ~below, mid, hi)
+
+
+# Rows x points handled at once by minimum_zone_many (its temporaries are a few dozen of this size).
+MANY_BLOCK_ELEMENTS = 500_000
+
+
+def minimum_zone_many(x: np.ndarray, h_rows: np.ndarray) -> np.ndarray:
+    """Minimum-zone straightness of every row of ``h_rows`` (shape (m, n)) at the same x, exact and
+    equal to ``minimum_zone_line(x, row).straightness_um`` row by row (same hull, same candidate slopes
+    in the same order, the same arithmetic), vectorised over rows.
+
+    The hulls of all rows are found at once (:func:`_hull_rows`); then, as in
+    :func:`minimum_zone_line`, each hull edge slope is a candidate, its supporting vertex on either
+    hull comes from a binary search over that hull's monotone edge slopes (:func:`_count_below`) and
+    the candidate of least width gives the zone.
+    """
+    x, h_rows = np.asarray(x, dtype=float), np.atleast_2d(np.asarray(h_rows, dtype=float))
+    if h_rows.ndim != 2 or x.ndim != 1 or h_rows.shape[1] != len(x):
+        raise ValueError("h_rows must have one column per x")
+    _check(x, x, 2)
+    if not np.all(np.isfinite(h_rows)):
+        raise ValueError("x and h must be finite")
+    if np.all(x == x[0]):
+        raise ValueError("all points have the same x")
     out = np.empty(len(h_rows))
-    step = max(1, 4_000_000 // max(1, len(i) * n))
+    step = max(1, MANY_BLOCK_ELEMENTS // len(x))
     for s in range(0, len(h_rows), step):
-        h = h_rows[s:s + step]
-        b = (h[:, j] - h[:, i]) / (x[j] - x[i])                 # (m, pairs)
-        r = h[:, None, :] - b[:, :, None] * x[None, None, :]   # (m, pairs, n)
-        out[s:s + step] = np.min(r.max(axis=2) - r.min(axis=2), axis=1)
+        out[s:s + step] = _zone_block(x, h_rows[s:s + step])
     return out
+
+
+def _zone_block(x: np.ndarray, h: np.ndarray) -> np.ndarray:
+    if np.all(np.diff(x) > 0):
+        xu_in = xl_in = x
+        hu_in = hl_in = h
+    else:  # as hulls(): the highest value of each x for the upper hull, the lowest for the lower
+        order = np.argsort(x, kind="stable")
+        xs = x[order]
+        starts = np.flatnonzero(np.r_[True, xs[1:] != xs[:-1]])
+        hs = h[:, order]
+        xu_in = xl_in = xs[starts]
+        hu_in = np.maximum.reduceat(hs, starts, axis=1)
+        hl_in = np.minimum.reduceat(hs, starts, axis=1)
+    xu, hu, cu = _hull_rows(xu_in, hu_in, True)
+    xl, hl, cl = _hull_rows(xl_in, hl_in, False)
+    with np.errstate(invalid="ignore", divide="ignore"):  # padding: 0/0, masked below
+        su = np.diff(hu, axis=1) / np.diff(xu, axis=1)   # decreasing along each upper hull
+        sl = np.diff(hl, axis=1) / np.diff(xl, axis=1)   # increasing along each lower hull
+    eu = np.arange(su.shape[1])[None, :] < (cu - 1)[:, None]
+    el = np.arange(sl.shape[1])[None, :] < (cl - 1)[:, None]
+    su = np.where(eu, su, -np.inf)
+    sl = np.where(el, sl, np.inf)
+    slopes = np.concatenate([su, sl], axis=1)
+    valid = np.concatenate([eu, el], axis=1)
+    q = np.where(valid, slopes, 0.0)
+    rows = np.arange(len(h))[:, None]
+    iu = _count_below(-su, -q)
+    il = _count_below(sl, q)
+    top = hu[rows, iu] - q * xu[rows, iu]
+    bottom = hl[rows, il] - q * xl[rows, il]
+    k = np.argmin(np.where(valid, top - bottom, np.inf), axis=1)
+    b = q[rows[:, 0], k][:, None]
+    r = h - b * x  # as minimum_zone_line: the centre line, then the spread of the deviations from it
+    dev = h - ((r.max(axis=1) + r.min(axis=1))[:, None] / 2 + b * x)
+    return dev.max(axis=1) - dev.min(axis=1)  # type: ignore[no-any-return]

@@ -35,8 +35,8 @@ every trial, so it is in the straightness U all the same.
 Monte Carlo (GUM-S1): the same input distributions (normal; the sensor
 resolution uniform over one display step), seeded, drawn ``trials`` times;
 each trial decouples with the selected method, averages the stations and
-evaluates every reference line, vectorised over trials except the
-minimum-zone line for long profiles (exact hull per trial).  The straightness uncertainty is the
+evaluates every reference line, vectorised over trials (the minimum zone by the
+exact hulls of all trials at once, :func:`minimum_zone_many`).  The straightness uncertainty is the
 standard deviation of the trial values; expanded U = k u with k = 2, and the
 probabilistically symmetric 95 % coverage interval is given too.
 """

@@ -110,3 +110,103 @@ def test_many_rows_match_the_single_line(n: int) -> None:
     many = minimum_zone_many(x, rows)
     for row, value in zip(rows, many, strict=True):
         assert value == pytest.approx(brute_force_zone(x, row), abs=1e-9)
+
+
+def exhaustive_zone(x: np.ndarray, h: np.ndarray) -> float:
+    """The least vertical spread over every line through two points of distinct x, vectorised over
+    the pairs (O(N^3) work, exact): the minimum zone has a hull edge, so a pair of points, on one side."""
+    i, j = np.triu_indices(len(x), 1)
+    keep = x[i] != x[j]
+    i, j = i[keep], j[keep]
+    best = np.inf
+    for s in range(0, len(i), 2000):
+        b = (h[j[s:s + 2000]] - h[i[s:s + 2000]]) / (x[j[s:s + 2000]] - x[i[s:s + 2000]])
+        r = h[None, :] - b[:, None] * x[None, :]
+        best = min(best, float(np.min(r.max(axis=1) - r.min(axis=1))))
+    return best
+
+
+def _profiles(rng: np.random.Generator, n: int, kind: int, rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """``rows`` random profiles of ``n`` points sharing one x, of several shapes."""
+    x = np.arange(n) * 25.0
+    if kind == 0:    # noise
+        h = rng.normal(0, 2, (rows, n))
+    elif kind == 1:  # wave + noise + a tilt per row
+        h = (3 * np.sin(x / 700.0) + rng.normal(0, 0.2, (rows, n)) + rng.normal(0, 1e-3, (rows, 1)) * x)
+    elif kind == 2:  # integer heights: many collinear triples
+        h = rng.integers(-2, 3, (rows, n)).astype(float)
+    else:            # smooth, every point on a hull (a parabola), some rows exactly straight
+        h = 1e-5 * (x - x.mean()) ** 2 * rng.choice([-1.0, 0.0, 1.0], (rows, 1)) + 0.01 * x
+    return x, h
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 7, 20, 41, 200])
+def test_many_equals_the_exhaustive_width(n: int) -> None:
+    """The vectorised hulls give the exhaustive pair width, on noise, waves, collinear grids and curves."""
+    rng = np.random.default_rng(100 + n)
+    for kind in range(4):
+        x, rows = _profiles(rng, n, kind, 40)
+        many = minimum_zone_many(x, rows)
+        for row, value in zip(rows, many, strict=True):
+            assert value == pytest.approx(exhaustive_zone(x, row), abs=1e-9), (kind, row)
+
+
+@pytest.mark.parametrize("n", [2, 3, 25, 200, 2001, 2500])
+def test_many_equals_the_single_profile_function(n: int) -> None:
+    """Row by row as minimum_zone_line (the single-profile hull; qhull above 2,000 points) to 1e-12 um."""
+    rng = np.random.default_rng(n)
+    for kind in range(4):
+        x, rows = _profiles(rng, n, kind, 30 if n > 1000 else 200)
+        many = minimum_zone_many(x, rows)
+        single = np.array([minimum_zone_line(x, row).straightness_um for row in rows])
+        assert np.max(np.abs(many - single)) <= 1e-12, kind
+
+
+def test_many_above_2000_points_equals_the_exhaustive_width() -> None:
+    """> 2,000 points: the exhaustive width over every pair of qhull's hull vertices (a zone side passes
+    through two of them; qhull is independent of the code under test), the spread over all points."""
+    from scipy.spatial import ConvexHull
+
+    rng = np.random.default_rng(77)
+    for kind in (0, 1):
+        x, rows = _profiles(rng, 2100, kind, 3)
+        for row, value in zip(rows, minimum_zone_many(x, rows), strict=True):
+            v = np.unique(ConvexHull(np.column_stack([x / x[-1], row / np.ptp(row)])).vertices)
+            best = min(float(np.ptp(row - (row[j] - row[i]) / (x[j] - x[i]) * x))
+                       for i, j in itertools.combinations(v, 2))
+            assert value == pytest.approx(best, abs=1e-9)
+
+
+def test_many_with_repeated_x_and_unsorted_x() -> None:
+    """A forward and a return reading at one station (repeated x), x in any order: the highest reading
+    of an x bounds the zone from above, the lowest from below, as for the exhaustive width."""
+    rng = np.random.default_rng(5)
+    for _ in range(40):
+        n = int(rng.integers(3, 30))
+        x = rng.integers(0, max(2, n // 2), n).astype(float) * 10.0
+        if np.all(x == x[0]):
+            x[-1] += 10.0
+        rows = rng.normal(0, 1, (5, n))
+        many = minimum_zone_many(x, rows)
+        for row, value in zip(rows, many, strict=True):
+            assert value == pytest.approx(exhaustive_zone(x, row), abs=1e-9)
+            assert value == pytest.approx(minimum_zone_line(x, row).straightness_um, abs=1e-12)
+
+
+def test_many_does_not_depend_on_the_block_it_is_given_in(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A trial's value is the same evaluated alone or among many (the Monte Carlo chunks its trials)."""
+    rng = np.random.default_rng(8)
+    x, rows = _profiles(rng, 60, 1, 300)
+    whole = minimum_zone_many(x, rows)
+    monkeypatch.setattr(reference_lines, "MANY_BLOCK_ELEMENTS", 7 * 60)
+    assert np.array_equal(minimum_zone_many(x, rows), whole)
+    assert np.array_equal(np.concatenate([minimum_zone_many(x, rows[k:k + 1]) for k in range(5)]), whole[:5])
+
+
+def test_many_refuses_bad_input() -> None:
+    with pytest.raises(ValueError, match="same x"):
+        minimum_zone_many(np.zeros(3), np.ones((2, 3)))
+    with pytest.raises(ValueError, match="finite"):
+        minimum_zone_many(np.arange(3.0), np.array([[0.0, np.nan, 1.0]]))
+    with pytest.raises(ValueError, match="one column per x"):
+        minimum_zone_many(np.arange(3.0), np.ones((2, 4)))
