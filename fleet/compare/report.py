@@ -23,7 +23,13 @@ LINE_LABELS = {"endpoint": "end-point line", "least_squares": "least-squares lin
 
 def compare_command(run_a: Any, run_b: Any, report: Any, options: dict[str, Any]) -> str:
     """The ``guideway compare`` command line that reproduces the report."""
-    args = ["guideway", "compare", str(run_a), str(run_b), "--report", str(report)]
+    return two_run_command("compare", run_a, run_b, report, options)
+
+
+def two_run_command(command: str, run_a: Any, run_b: Any, report: Any, options: dict[str, Any]) -> str:
+    """The ``guideway COMMAND RUN_A RUN_B --report FILE [options]`` line that reproduces a report of two runs
+    (``options``: name -> value; True a flag, False/None left out)."""
+    args = ["guideway", command, str(run_a), str(run_b), "--report", str(report)]
     for key, value in options.items():
         if value is True:
             args.append(f"--{key.replace('_', '-')}")

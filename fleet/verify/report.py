@@ -4,7 +4,6 @@ the per-target table; in the conventions of the compare report (self-contained, 
 
 from __future__ import annotations
 
-import shlex
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -18,13 +17,10 @@ if TYPE_CHECKING:
 
 
 def verify_command(found: Any, left: Any, report: Any, options: dict[str, Any]) -> str:
-    args = ["guideway", "verify", str(found), str(left), "--report", str(report)]
-    for key, value in options.items():
-        if value is True:
-            args.append(f"--{key.replace('_', '-')}")
-        elif value not in (False, None):
-            args += [f"--{key.replace('_', '-')}", str(value)]
-    return shlex.join(args)
+    """The ``guideway verify`` command line that reproduces the report."""
+    from ..compare.report import two_run_command
+
+    return two_run_command("verify", found, left, report, options)
 
 
 def render_verification(c: Verification, *, command: str = "") -> str:
