@@ -273,9 +273,35 @@ class GuidewayApp(App[None]):
         self.call_after_refresh(push)
 
     # -- quitting -----------------------------------------------------------------------------------
+    def action_quit(self) -> None:  # type: ignore[override]
+        """Ctrl+Q (Textual's own quit key): the same question as ``q``, never a silent exit."""
+        self.action_quit_app()
+
+    def edited_form(self) -> bool:
+        """The set-up form holds changes not saved (whichever screen is showing)."""
+        try:
+            setup = self.get_screen("setup")
+        except KeyError:  # not installed yet (before the first frame)
+            return False
+        return isinstance(setup, SetupScreen) and setup.edited
+
     def action_quit_app(self) -> None:
+        """Every way to quit (q, Ctrl+Q, from any screen) asks first when quitting would lose something: a
+        run in progress (aborted, resumable) or a set-up form with changes not saved."""
+        if isinstance(self.screen, ConfirmScreen):  # the question is already asked
+            return
         if not self.run_active:
-            self.exit()
+            if not self.edited_form():
+                self.exit()
+                return
+
+            def leave(yes: bool | None) -> None:
+                if yes:
+                    self.exit()
+
+            self.push_screen(ConfirmScreen("Quit without saving?", "The set-up on the form has changes that are "
+                                           "not saved (Ctrl+S on the set-up screen saves them to the set-up "
+                                           "file). Quit and lose them?"), leave)
             return
 
         def answered(yes: bool | None) -> None:
