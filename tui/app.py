@@ -59,8 +59,10 @@ class GuidewayApp(App[None]):
     CSS_PATH = "app.tcss"
     TITLE = "guideway"
     ENABLE_COMMAND_PALETTE = False
+    # ? opens the help from every screen but where a text field takes it (it is typed there); F1 from everywhere,
+    # a dialog and a text field included (priority: ahead of any widget and of a modal screen)
     BINDINGS = [Binding("q", "quit_app", "quit"), Binding("question_mark", "help", "help", key_display="?"),
-                Binding("f1", "help", "help", show=False),  # also from a text field, where ? is typed
+                Binding("f1", "help", "help", key_display="F1", show=False, priority=True),
                 Binding("f2", "setup", "set-up", show=False), Binding("f3", "runs", "runs", show=False)]
 
     def __init__(self, *, setup_source: dict[str, Any] | None = None, setup_path: Path | None = None,
@@ -118,7 +120,11 @@ class GuidewayApp(App[None]):
         self._switch("runs")
 
     def action_help(self) -> None:
-        if not isinstance(self.screen, HelpScreen | QuestionScreen):
+        """?/F1: the keys of the screen on top (a yes/no dialog's too); F1 again closes it.  A plan's question
+        lists its own keys, so it gets no help on top."""
+        if isinstance(self.screen, HelpScreen):
+            self.screen.dismiss(None)
+        elif not isinstance(self.screen, QuestionScreen):
             self.push_screen(HelpScreen(self.screen, list(self.BINDINGS)))
 
     @property
