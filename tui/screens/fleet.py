@@ -70,7 +70,7 @@ class FleetScreen(Screen):
         table.clear(columns=True)
         title = self.query_one("#fleet-title", Static)
         if ov is None:
-            title.update(escape(problem))
+            title.update(escape(printable(problem)))
             return
         due = sum(1 for r in ov.rows if r.overdue)
         beyond = sum(1 for r in ov.rows if r.beyond)
