@@ -32,10 +32,12 @@ def shown(runs_dir: Path, catalog_url: str | None = None, push: Any = None, size
             await pilot.pause()
             if push is not None:
                 app.push_screen(push(app))
-            for _ in range(3):
-                await pilot.pause()
+            for _ in range(100):  # until the catalogue is read ("reading ..." gone)
+                await pilot.pause(0.05)
                 await app.workers.wait_for_complete()
-            await pilot.pause()
+                await pilot.pause()
+                if "reading" not in "\n".join(screen_lines(app)):
+                    break
             out.append(screen_lines(app))
 
     asyncio.run(main())
@@ -104,3 +106,36 @@ def test_the_fleet_screen_shows_the_names_literally(tmp_path: Path) -> None:
     text = "\n".join(lines)
     assert ESC not in text
     assert "[bold red]X\\x1b[2J\\nforged" in text
+
+
+def test_the_results_title_shows_the_machine_and_axis_literally(tmp_path: Path) -> None:
+    from tests.tui.test_results_screen import copy_run, on_results
+
+    run = copy_run(tmp_path, "positioning-x", machine=MACHINE, axis=f"X{ESC}[5m")
+
+    async def check(app: Any, pilot: Any) -> str:
+        await pilot.pause()
+        return "\n".join(screen_lines(app))
+
+    text = on_results(run, check, size=(200, 30))
+    assert ESC not in text
+    assert f"{MACHINE_SHOWN} · axis X\\x1b[5m" in text
+
+
+def test_literal_text_survives_any_markup_around_it() -> None:
+    """Every string of brackets, backslashes, tag-like and control characters reads back as its printable form
+    inside markup (Textual's own escape lets ``x [5m`` through, and the tag after it then fails)."""
+    import random
+
+    from textual.markup import to_content
+
+    from saved_runs.errors import printable
+    from tui.text import literal
+
+    rng = random.Random(25)
+    alphabet = "[]\\/@=$ab 1#.:\x1b\n"
+    for _ in range(3000):
+        t = "".join(rng.choice(alphabet) for _ in range(rng.randint(0, 12)))
+        shown = printable(t) + (" " if printable(t).endswith("\\") else "")
+        assert to_content(f"[b]{literal(t)}[/b] · [green]ok[/green]").plain == f"{shown} · ok", repr(t)
+    assert to_content(f"{literal('[bold red]X')} [b]y[/b]").plain == "[bold red]X y"

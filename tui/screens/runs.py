@@ -31,6 +31,8 @@ from fleet.catalog.config import configured_url, masked_url
 from saved_runs.catalog.folder import DAMAGED, RunSummary, list_runs  # no pandas: the browser paints at once
 from saved_runs.errors import UserError, printable
 
+from ..text import literal
+
 NAME_WIDTH = 32
 KIND_WIDTH = 12
 STATUS_WIDTH = 11  # "in-progress"
@@ -39,6 +41,7 @@ MACHINE_FLOOR = 8  # the least the machine column gets on screen ("Machine 7, be
 AXIS_MIN_WIDTH, AXIS_MAX_WIDTH = 4, 16  # wide layout: the axis column
 WIDE = 120  # from this many columns on, one line per run
 CREATED_WIDTH = 19
+
 
 
 def wrap(text: str, width: int) -> list[str]:
@@ -195,11 +198,11 @@ class RunsScreen(Screen):
         n = len(self.runs)
         if self.from_catalog:
             where = f"the catalogue {escape(masked_url(str(self.catalog_url)))}"
-            filters = [f"{what} {escape(printable(v))}" for what, v in (("machine", self.machine), ("axis", self.axis))
+            filters = [f"{what} {literal(v)}" for what, v in (("machine", self.machine), ("axis", self.axis))
                        if v]
             where += f" ({', '.join(filters)})" if filters else ""
         else:
-            where = escape(printable(self.runs_dir))
+            where = literal(self.runs_dir)
         problem = f"[b]catalogue: {escape(self.catalog_problem)}[/b]\n" if self.catalog_problem else ""
         marked = f" · {len(self.marked)} marked" if self.marked else ""
         if not n:
@@ -289,23 +292,23 @@ class RunsScreen(Screen):
     def show_detail(self) -> None:
         """The selected run's status in full, under the table."""
         r = self.selected()
-        name = printable(r.path.name) if r is not None else ""
+        name = literal(r.path.name) if r is not None else ""
         if r is None:
             text = ""
         elif r.problem:
-            text = f"{escape(name)}: [b]{DAMAGED}[/b]: {escape(printable(r.problem))}"
+            text = f"{name}: [b]{DAMAGED}[/b]: {literal(r.problem)}"
         elif self.from_catalog:  # the catalogue's entry: where the run is, not what is on disk now
-            text = f"{escape(name)}: {escape(printable(r.status))} when catalogued, at {escape(printable(r.path))}; " \
+            text = f"{name}: {literal(r.status)} when catalogued, at {literal(r.path)}; " \
                    "Enter opens its results, t its axis' trend"
         else:
             planned = f" of {r.planned} planned" if r.planned else ""
             what = "c continues it" if r.resumable else "Enter opens its results"
-            text = f"{escape(name)}: {escape(printable(r.status))}, {r.points} points on disk{planned}; {what}"
+            text = f"{name}: {literal(r.status)}, {r.points} points on disk{planned}; {what}"
             if is_empty(r):
-                text = (f"{escape(name)}: empty ({escape(printable(r.status))} before its first point); c continues "
+                text = (f"{name}: empty ({literal(r.status)} before its first point); c continues "
                         f"it, or delete its folder")
         if r is not None and is_future(r.created):
-            text += (f"\n[b]! dated in the future[/b] (created {escape(printable(r.created))}): check the rig's clock; "
+            text += (f"\n[b]! dated in the future[/b] (created {literal(r.created)}): check the rig's clock; "
                      "left out of trends")
         self.query_one("#run-detail", Static).update(text)
 

@@ -16,7 +16,6 @@ from rich.text import Text
 from textual import work
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Static
 
@@ -26,6 +25,7 @@ from fleet.trend.fit import DAYS_PER_YEAR, parse_date, years_between
 from fleet.trend.of_catalog import MAGNITUDE_NOTE, AxisTrend, axis_trend
 from saved_runs.errors import UserError, printable
 
+from ..text import literal
 from ..widgets.plot import Plot, PlotData, Series
 
 
@@ -122,7 +122,7 @@ class TrendScreen(Screen):
     def load(self, first: bool = False) -> None:
         """Read the trend in a worker (a database server that does not answer must not freeze the
         screen; docs/fleet.md) and show it when it is read."""
-        self.query_one("#trend-title", Static).update(escape(printable(f"reading the trend of {self.value} ...")))
+        self.query_one("#trend-title", Static).update(literal(f"reading the trend of {self.value} ..."))
         self.read(first)
 
     @work(thread=True, exclusive=True, group="trend")
@@ -148,12 +148,12 @@ class TrendScreen(Screen):
         table = self.query_one(DataTable)
         table.clear(columns=True)
         if at is None:
-            title.update(escape(printable(problem)))
+            title.update(literal(problem))
             self.query_one("#trend-plot", Plot).show(PlotData())
             self.query_one("#trend-fit", Static).update("")
             return
-        title.update(escape(printable(f"{at.value} · machine {at.machine or '-'} · axis {at.axis or '-'} "
-                                      f"(v: next value of {len(self.values)})")))
+        title.update(literal(f"{at.value} · machine {at.machine or '-'} · axis {at.axis or '-'} "
+                             f"(v: next value of {len(self.values)})"))
         self.query_one("#trend-plot", Plot).show(trend_plot(at))
         self.query_one("#trend-fit", Static).update(Text(trend_text(at)))
         stepped = {s.to_run: s for s in at.trend.steps}
