@@ -175,7 +175,7 @@ def run_writer_lock(run_dir: Path | str, *, new: bool) -> Iterator[RunLock | Non
     """
     run_dir = Path(run_dir)
     if new:
-        make_run_dir(run_dir)
+        make_run_dir(run_dir, require_empty=False)  # (emptiness: checked by the store, under the lock)
     elif not run_dir.is_dir():
         yield None
         return
@@ -186,14 +186,16 @@ def run_writer_lock(run_dir: Path | str, *, new: bool) -> Iterator[RunLock | Non
         lock.release()
 
 
-def make_run_dir(run_dir: Path | str) -> None:
+def make_run_dir(run_dir: Path | str, *, require_empty: bool = True) -> None:
     """Create the directory of a new run (and its parents), exclusively and without following a link.
 
     The default names (``runs/demo-<UTC time>``, the TUI's ``runs/KIND-<UTC time>``) are predictable: a symbolic
     link planted at one would make the new run be written into the link's target.  ``mkdir`` never follows a
     link (a link there, dangling or not, makes it fail), so what stands at the name afterwards is checked with
     ``lstat``: a link is refused (:class:`UnsafeFileError`, exit 2) and left alone; an existing real directory
-    is taken only when it is empty (its lock file aside), as ``--out`` made beforehand."""
+    is taken only when it is empty (its lock file aside), as ``--out`` made beforehand (``require_empty``
+    False: not checked here, as the writer lock makes the directory before it is locked; a second writer
+    racing for the same new run is then told the run is in use, and the store checks under the lock)."""
     run_dir = Path(run_dir)
     try:
         run_dir.parent.mkdir(parents=True, exist_ok=True)
@@ -212,7 +214,7 @@ def make_run_dir(run_dir: Path | str) -> None:
                               "remove the link (and find out who put it there) or choose another --out")
     if not stat.S_ISDIR(mode):
         raise RunFormatError(f"{run_dir} exists and is not a directory; choose another --out")
-    if run_files(run_dir):
+    if require_empty and run_files(run_dir):
         raise RunFormatError(f"{run_dir} is not empty; choose a new directory for the run")
 
 
