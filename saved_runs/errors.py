@@ -82,3 +82,19 @@ def file_kind(mode: int) -> str:
         if test(mode):
             return words
     return "a special file"  # pragma: no cover
+
+
+_ESCAPES = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
+
+
+def printable(text: object) -> str:
+    """``text`` with its control characters escaped (a newline as ``\\n``, ESC as ``\\x1b``, others as
+    ``\\xNN`` / ``\\uNNNN``): a run's machine, axis, operator or name comes from a run.json anyone may have
+    written, and one holding a terminal escape code must not drive the terminal, nor a newline forge a line
+    of a list or a table.  Every place that shows such a name (command line and TUI) goes through here."""
+    def one(ch: str) -> str:
+        if ch.isprintable():
+            return ch
+        return _ESCAPES.get(ch) or (f"\\x{ord(ch):02x}" if ord(ch) < 0x100 else f"\\u{ord(ch):04x}")
+
+    return "".join(map(one, str(text)))

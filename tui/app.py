@@ -59,8 +59,10 @@ class GuidewayApp(App[None]):
     CSS_PATH = "app.tcss"
     TITLE = "guideway"
     ENABLE_COMMAND_PALETTE = False
+    # ? opens the help from every screen but where a text field takes it (it is typed there); F1 from everywhere,
+    # a dialog and a text field included (priority: ahead of any widget and of a modal screen)
     BINDINGS = [Binding("q", "quit_app", "quit"), Binding("question_mark", "help", "help", key_display="?"),
-                Binding("f1", "help", "help", show=False),  # also from a text field, where ? is typed
+                Binding("f1", "help", "help", key_display="F1", show=False, priority=True),
                 Binding("f2", "setup", "set-up", show=False), Binding("f3", "runs", "runs", show=False)]
 
     def __init__(self, *, setup_source: dict[str, Any] | None = None, setup_path: Path | None = None,
@@ -118,7 +120,11 @@ class GuidewayApp(App[None]):
         self._switch("runs")
 
     def action_help(self) -> None:
-        if not isinstance(self.screen, HelpScreen | QuestionScreen):
+        """?/F1: the keys of the screen on top (a yes/no dialog's too); F1 again closes it.  A plan's question
+        lists its own keys, so it gets no help on top."""
+        if isinstance(self.screen, HelpScreen):
+            self.screen.dismiss(None)
+        elif not isinstance(self.screen, QuestionScreen):
             self.push_screen(HelpScreen(self.screen, list(self.BINDINGS)))
 
     @property
@@ -273,9 +279,35 @@ class GuidewayApp(App[None]):
         self.call_after_refresh(push)
 
     # -- quitting -----------------------------------------------------------------------------------
+    def action_quit(self) -> None:  # type: ignore[override]
+        """Ctrl+Q (Textual's own quit key): the same question as ``q``, never a silent exit."""
+        self.action_quit_app()
+
+    def edited_form(self) -> bool:
+        """The set-up form holds changes not saved (whichever screen is showing)."""
+        try:
+            setup = self.get_screen("setup")
+        except KeyError:  # not installed yet (before the first frame)
+            return False
+        return isinstance(setup, SetupScreen) and setup.edited
+
     def action_quit_app(self) -> None:
+        """Every way to quit (q, Ctrl+Q, from any screen) asks first when quitting would lose something: a
+        run in progress (aborted, resumable) or a set-up form with changes not saved."""
+        if isinstance(self.screen, ConfirmScreen):  # the question is already asked
+            return
         if not self.run_active:
-            self.exit()
+            if not self.edited_form():
+                self.exit()
+                return
+
+            def leave(yes: bool | None) -> None:
+                if yes:
+                    self.exit()
+
+            self.push_screen(ConfirmScreen("Quit without saving?", "The set-up on the form has changes that are "
+                                           "not saved (Ctrl+S on the set-up screen saves them to the set-up "
+                                           "file). Quit and lose them?"), leave)
             return
 
         def answered(yes: bool | None) -> None:

@@ -39,6 +39,7 @@ from typing import Any
 from saved_runs.errors import UserError
 from saved_runs.evaluation.tolerance import POSITIONING_QUANTITIES, REFERENCE_LINES
 from saved_runs.store.compensation import run_compensation
+from saved_runs.store.files import read_run_file
 from saved_runs.store.format import FORMAT, run_axis
 
 HASHED_FILES = ("run.json", "points.csv")
@@ -120,10 +121,12 @@ def read_run_files(run_dir: Path | str) -> RunFiles:
     path = Path(run_dir).resolve()
     digest = hashlib.sha256()
     try:
-        raw = (path / "run.json").read_bytes()
+        raw = read_run_file(path / "run.json")  # O_NONBLOCK, a regular file only: a planted FIFO never hangs
         meta = json.loads(raw)
     except FileNotFoundError:
         raise RunUnreadable(f"{path}: no run.json (not a run directory)") from None
+    except UserError as exc:  # not a regular file
+        raise RunUnreadable(str(exc)) from None
     except OSError as exc:
         raise RunUnreadable(f"{path}: run.json cannot be read ({exc.strerror or exc.__class__.__name__})") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -136,10 +139,12 @@ def read_run_files(run_dir: Path | str) -> RunFiles:
     digest.update(b"\0")
     points = b""
     try:
-        points = (path / "points.csv").read_bytes()
+        points = read_run_file(path / "points.csv")
         digest.update(points)
     except FileNotFoundError:
         pass  # a run that failed before its first point: hashed as empty
+    except UserError as exc:  # not a regular file
+        raise RunUnreadable(str(exc)) from None
     except OSError as exc:
         raise RunUnreadable(f"{path}: points.csv cannot be read ({exc.strerror or exc.__class__.__name__})") from None
     # the rows under the header ended by a newline (the reader drops a partial last line)
@@ -161,8 +166,8 @@ def fresh_summary(run_dir: Path) -> dict[str, Any] | None:
     if not written or written < max(_mtime_ns(run_dir / name) for name in HASHED_FILES):
         return None
     try:
-        data = json.loads(summary.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        data = json.loads(read_run_file(summary).decode("utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, UserError):  # UserError: not a regular file
         return None
     return data if isinstance(data, dict) else None
 

@@ -10,8 +10,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from saved_runs.errors import UserError
+from saved_runs.errors import UserError, printable
 
+from .clock import is_future
 from .database import Catalog
 from .entry import identity, read_run_files
 from .runs import list_entries, still_holds
@@ -38,11 +39,15 @@ def earlier_runs(cat: Catalog, run_dir: Path | str, count: int) -> History:
         raise UserError(f"{run_dir}: run.json records no {' or '.join(missing)}, so the catalogue cannot tell "
                         "the same machine's earlier runs; name them with --noise-from RUN...")
     found: list[Path] = []
+    future: list[str] = []  # dated in the future (a rig clock ahead): left out, named in the note
     for entry in list_entries(cat, machine=me["machine"], axis=me["axis"], kind=me["kind"]):
         if len(found) == count:
             break
         if (entry.uid != files.uid and entry.status == "complete" and entry.created < me["created"]
                 and still_holds(entry.path, entry.uid)):
+            if is_future(entry.created):  # "earlier" only by a wrong clock (RUN's is wrong too): not its history
+                future.append(f"{Path(entry.path).name} (created {entry.created})")
+                continue
             found.append(Path(entry.path))
     what = f"machine {me['machine']!r}, axis {me['axis']!r}"
     if not found:
@@ -50,4 +55,7 @@ def earlier_runs(cat: Catalog, run_dir: Path | str, count: int) -> History:
     else:
         note = (f"{len(found)} earlier run(s) of {what} from the catalogue {cat.url}"
                 + (f" (asked for {count})" if len(found) < count else ""))
-    return History(tuple(found), note)
+    if future:
+        note += (f"; left out {len(future)} run(s) dated in the future (check the rig's clock): "
+                 + ", ".join(future))
+    return History(tuple(found), printable(note))

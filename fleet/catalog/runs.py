@@ -18,6 +18,7 @@ from typing import Any
 import sqlalchemy as sa
 
 from saved_runs.errors import UserError
+from saved_runs.store.files import read_run_file
 
 from .database import Catalog, runs_table
 from .entry import Entry, RunFiles, RunUnreadable, identity, make_entry, read_run_files
@@ -130,8 +131,8 @@ def _known(cat: Catalog, uids: Iterable[str]) -> dict[str, tuple[str, str, bool]
 def still_holds(path: str, uid: str) -> bool:
     """Whether ``path`` still holds the run ``uid`` (else the run has moved away from it)."""
     try:
-        return json.loads((Path(path) / "run.json").read_bytes()).get("uid") == uid
-    except (OSError, ValueError, AttributeError):
+        return json.loads(read_run_file(Path(path) / "run.json")).get("uid") == uid
+    except (OSError, ValueError, AttributeError, UserError):  # UserError: not a regular file (a FIFO)
         return False
 
 

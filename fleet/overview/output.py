@@ -9,6 +9,7 @@ import io
 from pathlib import Path
 from typing import TextIO
 
+from saved_runs.errors import printable  # control characters escaped, as everywhere a name is shown
 from saved_runs.report.html import HtmlPage, esc, write_page
 
 from .overview import COVERAGE_K, FleetRow, Overview
@@ -18,19 +19,6 @@ CSV_COLUMNS = ("machine", "axis", "value", "unit", "limit", "limit_source", "run
                "u_slope_per_year", "crossing_date", "u_crossing_days", "beyond_limit_since", "last_step_date",
                "last_step_change", "compensation", "compensation_sha256", "interval_days", "calibration_due",
                "overdue")
-
-
-def printable(text: str) -> str:
-    """``text`` with its control characters escaped (a machine name holding a terminal escape code must not
-    drive the terminal, nor a newline forge a line of the table); as ``catalog list`` does."""
-    escapes = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
-
-    def one(ch: str) -> str:
-        if ch.isprintable():
-            return ch
-        return escapes.get(ch) or (f"\\x{ord(ch):02x}" if ord(ch) < 0x100 else f"\\u{ord(ch):04x}")
-
-    return "".join(map(one, text))
 
 
 def _num(x: float | None, digits: int = 3) -> str:

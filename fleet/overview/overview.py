@@ -25,6 +25,8 @@ from fleet.catalog.database import Catalog, runs_table
 from fleet.catalog.entry import Entry, run_facts
 from fleet.catalog.settings import Interval, Tolerance, list_intervals, list_tolerances
 from fleet.trend.fit import SIGNED_VALUES, Step, Trend, TrendPoint, fit_trend, parse_date
+from saved_runs.errors import UserError
+from saved_runs.store.files import read_run_file
 
 COVERAGE_K = 2.0  # the expanded uncertainty U shown beside a run's value: k = 2 times the entry's standard u
 AS_EVALUATED = "as evaluated"  # the decision rule of a verdict whose evaluation does not name one
@@ -234,10 +236,10 @@ def _facts(e: Entry) -> dict[str, Any]:
     if e.facts is not None:
         return e.facts
     try:
-        meta = json.loads((Path(e.path) / "run.json").read_bytes())
+        meta = json.loads(read_run_file(Path(e.path) / "run.json"))
         if isinstance(meta, dict) and meta.get("uid") == e.uid:
             return run_facts(meta)
-    except (OSError, ValueError):
+    except (OSError, ValueError, UserError):  # UserError: not a regular file (a FIFO)
         pass
     return {"operator": "", "compensation": {"active": None}, "instruments": [], "decision_rule": None}
 

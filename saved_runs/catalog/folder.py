@@ -19,6 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..errors import RunFormatError
+from ..store.files import read_run_file  # O_NONBLOCK, regular files only: a FIFO never hangs the browser
 from ..store.format import FORMAT, run_axis  # the format's names only: the run browser's first paint loads no pandas
 
 DAMAGED = "damaged"
@@ -69,9 +71,11 @@ def planned_points(meta: dict[str, Any]) -> int | None:
 def points_on_disk(path: Path) -> tuple[int, str]:
     """(complete rows of points.csv, why it is damaged or ''); a missing file holds 0 points."""
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_run_file(path).decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")
     except FileNotFoundError:
         return 0, ""
+    except RunFormatError:  # a named pipe, a device: never read (it would hang the browser)
+        return 0, "points.csv is not a regular file"
     except (OSError, UnicodeDecodeError) as exc:
         return 0, f"points.csv unreadable ({exc.__class__.__name__})"
     text = text[:text.rfind("\n") + 1]  # a partial last line is a kill mid-write, not damage
@@ -119,7 +123,9 @@ def run_summary(run_dir: Path) -> RunSummary:
 
 def _summary(run_dir: Path) -> RunSummary:
     try:
-        meta: Any = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))
+        meta: Any = json.loads(read_run_file(run_dir / "run.json").decode("utf-8"))
+    except RunFormatError:
+        return RunSummary(run_dir, status=DAMAGED, problem="run.json is not a regular file")
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         return RunSummary(run_dir, status=DAMAGED, problem=f"run.json unreadable ({exc.__class__.__name__})")
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:

@@ -21,7 +21,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, BinaryIO
 
-from ..errors import FileWriteError, UnsafeFileError, file_kind
+from ..errors import FileWriteError, RunFormatError, UnsafeFileError, file_kind
 
 _CLOEXEC = getattr(os, "O_CLOEXEC", 0)
 _DIR_FLAGS = os.O_RDONLY | os.O_DIRECTORY | _CLOEXEC
@@ -31,6 +31,32 @@ _DIR_FLAGS = os.O_RDONLY | os.O_DIRECTORY | _CLOEXEC
 # and ".NAME.tmp.png".  The pid lets the next writer tell a
 # leftover of a killed process from a file another process is writing right now.
 TEMP_NAME = re.compile(r"^\.(?P<name>.+?)\.(?:(?:(?P<pid>\d+)-)?[0-9a-f]{8}\.tmp(?:dir)?|tmp\.png)$")
+
+
+_READ_FLAGS = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0)
+
+
+def read_run_file(path: Path | str) -> bytes:
+    """The bytes of a file of a run (run.json, points.csv, results/summary.json), or
+    :class:`~saved_runs.errors.RunFormatError` naming it when it is not a regular file.
+
+    Opened with ``O_NONBLOCK`` and checked with ``fstat`` on what was opened (no check-then-open race): a named
+    pipe (FIFO) planted at run.json would otherwise make ``catalog add``, ``process`` or the runs browser wait
+    forever for a writer, and a device would be read without end.  A symbolic link is followed: reading
+    through it is harmless (nothing is written), and the file it leads to must be a regular file all the
+    same (docs/reliability.md).  ``FileNotFoundError`` (and other ``OSError``) pass to the caller."""
+    fd = os.open(path, _READ_FLAGS)
+    try:
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            raise RunFormatError(f"{path} is {file_kind(mode)}, not a regular file: guideway does not read it "
+                                 "(a named pipe would wait forever); replace it with the run's own file")
+        with os.fdopen(fd, "rb") as f:
+            fd = -1  # closed with f
+            return f.read()
+    finally:
+        if fd >= 0:
+            os.close(fd)
 
 
 def fsync_dir(path: Path) -> None:

@@ -175,13 +175,7 @@ def run_writer_lock(run_dir: Path | str, *, new: bool) -> Iterator[RunLock | Non
     """
     run_dir = Path(run_dir)
     if new:
-        if run_dir.exists() and not run_dir.is_dir():
-            raise RunFormatError(f"{run_dir} exists and is not a directory; choose another --out")
-        try:
-            run_dir.mkdir(parents=True, exist_ok=True)
-        except PermissionError:
-            raise RunFormatError(f"{run_dir}: cannot create the run directory (permission denied); "
-                                 "choose an --out you may write to") from None
+        make_run_dir(run_dir, require_empty=False)  # (emptiness: checked by the store, under the lock)
     elif not run_dir.is_dir():
         yield None
         return
@@ -190,6 +184,38 @@ def run_writer_lock(run_dir: Path | str, *, new: bool) -> Iterator[RunLock | Non
         yield lock
     finally:
         lock.release()
+
+
+def make_run_dir(run_dir: Path | str, *, require_empty: bool = True) -> None:
+    """Create the directory of a new run (and its parents), exclusively and without following a link.
+
+    The default names (``runs/demo-<UTC time>``, the TUI's ``runs/KIND-<UTC time>``) are predictable: a symbolic
+    link planted at one would make the new run be written into the link's target.  ``mkdir`` never follows a
+    link (a link there, dangling or not, makes it fail), so what stands at the name afterwards is checked with
+    ``lstat``: a link is refused (:class:`UnsafeFileError`, exit 2) and left alone; an existing real directory
+    is taken only when it is empty (its lock file aside), as ``--out`` made beforehand (``require_empty``
+    False: not checked here, as the writer lock makes the directory before it is locked; a second writer
+    racing for the same new run is then told the run is in use, and the store checks under the lock)."""
+    run_dir = Path(run_dir)
+    try:
+        run_dir.parent.mkdir(parents=True, exist_ok=True)
+        os.mkdir(run_dir)
+        return
+    except FileExistsError:
+        pass
+    except PermissionError:
+        raise RunFormatError(f"{run_dir}: cannot create the run directory (permission denied); "
+                             "choose an --out you may write to") from None
+    except NotADirectoryError:
+        raise RunFormatError(f"{run_dir}: a parent of it is not a directory; choose another --out") from None
+    mode = os.lstat(run_dir).st_mode
+    if stat.S_ISLNK(mode):
+        raise UnsafeFileError(run_dir, "a symbolic link", "a new run directory",
+                              "remove the link (and find out who put it there) or choose another --out")
+    if not stat.S_ISDIR(mode):
+        raise RunFormatError(f"{run_dir} exists and is not a directory; choose another --out")
+    if require_empty and run_files(run_dir):
+        raise RunFormatError(f"{run_dir} is not empty; choose a new directory for the run")
 
 
 def run_files(run_dir: Path) -> list[Path]:

@@ -17,6 +17,7 @@ import numpy as np
 from processing.columns import OPTIONAL_DEFAULTS
 
 from ..errors import RunFormatError
+from .files import read_run_file
 from .format import FORMAT, KINDS, SUPPORTED_VERSIONS, point_columns
 
 if TYPE_CHECKING:  # pandas when points are read, not when the set-up loaders import LoadedRun
@@ -43,10 +44,14 @@ def load_run(run_dir: Path | str) -> LoadedRun:
     if not run_dir.is_dir():
         raise RunFormatError(f"{run_dir}: no such run directory")
     meta_path = run_dir / "run.json"
-    if not meta_path.is_file():
-        raise RunFormatError(f"{run_dir}: no run.json; this is not a run directory")
     try:
-        meta = json.loads(meta_path.read_text(encoding="utf-8"))
+        raw = read_run_file(meta_path)
+    except FileNotFoundError:
+        raise RunFormatError(f"{run_dir}: no run.json; this is not a run directory") from None
+    except OSError as exc:
+        raise RunFormatError(f"{meta_path}: cannot be read ({exc.strerror or exc})") from None
+    try:
+        meta = json.loads(raw.decode("utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise RunFormatError(f"{meta_path}: not valid JSON ({exc})") from exc
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
@@ -89,10 +94,13 @@ def _check_meta_types(meta: dict[str, Any], meta_path: Path) -> None:
 
 
 def _read_points(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame, list[str]]:
-    if not path.is_file():
-        raise RunFormatError(f"{path.parent}: no points.csv")
     try:
-        text = path.read_text(encoding="utf-8")
+        # (universal newlines, as read_text gave: a points.csv saved with CRLF reads the same)
+        text = read_run_file(path).decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")
+    except FileNotFoundError:
+        raise RunFormatError(f"{path.parent}: no points.csv") from None
+    except OSError as exc:
+        raise RunFormatError(f"{path}: cannot be read ({exc.strerror or exc})") from None
     except UnicodeDecodeError as exc:
         raise RunFormatError(f"{path}: not UTF-8 text ({exc})") from exc
     warnings = []

@@ -23,7 +23,7 @@ from processing.columns import OPTIONAL_DEFAULTS
 from ..errors import FileWriteError, RunFormatError, UnsafeFileError, file_kind
 from .files import fsync_dir, write_json_atomic, write_text_atomic
 from .format import FORMAT, VERSION, format_cell, point_columns, utc_now_iso
-from .lock import run_files
+from .lock import make_run_dir
 from .plan import check_points_against_plan
 from .reader import load_run
 
@@ -98,13 +98,9 @@ class RunStore:
         return store
 
     def prepare(self) -> None:
-        """Create the directory; refuse one that already holds files (its writer lock aside)."""
-        if self.run_dir.exists():
-            if not self.run_dir.is_dir():
-                raise RunFormatError(f"{self.run_dir} exists and is not a directory; choose another --out")
-            if run_files(self.run_dir):
-                raise RunFormatError(f"{self.run_dir} is not empty; choose a new directory for the run")
-        self.run_dir.mkdir(parents=True, exist_ok=True)
+        """Create the directory exclusively, never through a link; refuse one that already holds files (its
+        writer lock aside) (:func:`~saved_runs.store.lock.make_run_dir`)."""
+        make_run_dir(self.run_dir)
 
     def __call__(self, name: str, doc: dict[str, Any]) -> None:
         if name == "start":

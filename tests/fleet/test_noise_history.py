@@ -103,3 +103,21 @@ def test_the_tui_diagnosis_uses_the_machines_history_and_h_switches_it(tmp_path:
     assert "noise history: 3 earlier run(s) of machine 'M1', axis 'X'" in pooled
     assert without["rule"]["ar1_history"] == [] and "serial correlation" not in alone
     assert "noise history: off" in alone
+
+
+def test_runs_dated_in_the_future_are_left_out_of_the_history_and_named(tmp_path: Path) -> None:
+    """A rig clock at 2099: its runs are "earlier" than a run also dated 2099 only by the wrong clock; they are
+    left out of the noise history (as out of trends) and the note names them."""
+    url = f"sqlite:///{tmp_path / 'catalog.sqlite'}"
+    runs = {
+        "jan": machine_run(tmp_path, "jan", "M1", "X", "2026-01-10T08:00:00Z", 1),
+        "ahead": machine_run(tmp_path, "ahead", "M1", "X", "2099-01-01T08:00:00Z", 2),
+        "now": machine_run(tmp_path, "now", "M1", "X", "2099-06-01T08:00:00Z", 3),
+    }
+    assert guideway("catalog", "add", *map(str, runs.values()), "--catalog", url)[0] == 0
+    code, out, err = guideway("diagnose", str(runs["now"]), "--noise-history", "3", "--catalog", url, "--json")
+    assert code == 0, err
+    used = [h["run"] for h in json.loads(out)["rule"]["ar1_history"]]
+    assert used == [str(runs["jan"].resolve())]
+    assert "1 earlier run(s) of machine 'M1', axis 'X'" in err
+    assert "left out 1 run(s) dated in the future (check the rig's clock): ahead (created 2099-01-01T08:00:00Z)" in err

@@ -147,3 +147,38 @@ def test_the_warm_up_box_shows_no_nan_before_the_first_drift() -> None:
                        + widget_text(app, "#drift"))
     assert "nan" not in text
     assert "now — (waiting for the first readings)" in text
+
+
+def test_simulated_manual_trigger_footer_says_space_is_cycle_start(tmp_path: Path) -> None:
+    """The footer says what Space does: Cycle Start while the rehearsed manual trigger waits for it (as the
+    instruction box says), capture once it was pressed."""
+    from tests.tui.sessions import screen_lines
+
+    out = tmp_path / "run"
+
+    async def main() -> tuple[str, str, str]:
+        app = run_app(MANUAL, out)
+        async with app.run_test(size=(120, 30)) as pilot:
+            await press_start(pilot, app)
+            await wait_for_app(pilot, lambda: app.session is not None and app.session.view.question is not None,
+                               what="the datum instruction")
+            session = app.session
+            await pilot.press("space")  # the axis is at the datum
+            await wait_for_app(pilot, lambda: isinstance(session.view.question, Instruct)
+                               and session.view.question.key == "target", what="the first target")
+            await pilot.pause()
+            await pilot.pause()
+            footer = screen_lines(app)[-1]
+            box = widget_text(app, "#instruction")
+            session.answer = lambda choice: None  # type: ignore[method-assign]  (hold the capture back)
+            await pilot.press("space")  # Cycle Start
+            await pilot.pause()
+            await pilot.pause()
+            after = screen_lines(app)[-1]
+            await pilot.press("q", "y")
+            return footer, box, after
+
+    footer, box, after = asyncio.run(main())
+    assert "Space Cycle Start" in box
+    assert "Cycle Start" in footer and "capture" not in footer.replace("auto-capture", ""), footer
+    assert "capture" in after.replace("auto-capture", "") and "Cycle Start" not in after, after

@@ -138,7 +138,7 @@ def test_help_and_footer_list_only_the_keys_that_work(tmp_path: Path) -> None:
     straightness_only = {"m", "u"}
     assert not positioning_only & straightness and straightness_only <= straightness
     assert positioning_only <= positioning and not straightness_only & positioning
-    assert {"h", "w", "d", "f3", "f2", "q", "?"} <= straightness & positioning
+    assert {"h", "w", "d", "f3", "f2", "q", "?/F1"} <= straightness & positioning  # the help says ?/F1
     for footer in (footer_s, footer_p):
         assert " d diagnose " in footer and " h report " in footer
 

@@ -290,3 +290,38 @@ def test_no_stale_file_message_after_a_successful_save(tmp_path: Path) -> None:
     assert "give the set-up file name first" not in after and "saved to" in after
     assert "set-up valid" in line
     assert read_toml(path)["block"] == STRAIGHTNESS["block"]
+
+
+@pytest.mark.parametrize("where", ["setup", "runs"])
+def test_ctrl_q_on_an_edited_form_asks_as_q_does_from_every_screen(where: str) -> None:
+    """Ctrl+Q (Textual's own quit key) and q from another screen ask before losing the form's changes."""
+    async def check(pilot: Any, app: Any) -> tuple[bool, str, str, bool]:
+        await type_into(pilot, app, "f-block-stations", "12")
+        app.screen.set_focus(None)
+        if where == "runs":
+            await pilot.press("f3")
+            await wait_for_app(pilot, lambda: screen_name(app) == "RunsScreen", what="the runs screen")
+        await pilot.press("ctrl+q")
+        await pilot.pause()
+        await wait_for_app(pilot, lambda: app._exit or screen_name(app) == "ConfirmScreen", what="the quit question")
+        text = "\n".join(screen_lines(app))
+        asked = screen_name(app)
+        await pilot.press("n")
+        await pilot.pause()
+        kept = app._exit
+        if where == "runs":  # q there is the application's quit: the same question
+            await pilot.press("q")
+            await wait_for_app(pilot, lambda: app._exit or screen_name(app) == "ConfirmScreen", what="the question")
+            await pilot.press("y")
+            await wait_for_app(pilot, lambda: app._exit, timeout_s=5, what="the app to quit")
+        return kept, asked, text, app._exit
+
+    kept, asked, text, _ = run_form(check)
+    assert not kept and asked == "ConfirmScreen" and "not saved" in text
+
+    async def untouched(pilot: Any, app: Any) -> bool:
+        await pilot.press("ctrl+q")
+        await wait_for_app(pilot, lambda: app._exit, timeout_s=5, what="the app to quit")
+        return app._exit
+
+    assert run_form(untouched)

@@ -18,6 +18,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from saved_runs.errors import printable  # control characters escaped: one helper for every name shown
+
 
 def _open(args: argparse.Namespace, create: bool = False) -> Any:
     """The catalogue of ``--catalog``; only ``add`` makes a new one (a mistyped URL to list or
@@ -43,7 +45,7 @@ def run_add(args: argparse.Namespace) -> int:
         with _open(args, create=True) as cat:
             for outcome in add_runs(cat, dirs, progress=stages.stage(f"adding {len(dirs)} run(s)")):
                 counts[outcome.action] = counts.get(outcome.action, 0) + 1
-                print(outcome.message, file=sys.stderr if outcome.action == "unreadable" else sys.stdout)
+                print(printable(outcome.message), file=sys.stderr if outcome.action == "unreadable" else sys.stdout)
             print(f"catalogue {cat.url}: " + (", ".join(f"{n} {a}" for a, n in sorted(counts.items()))
                                               or "no run found"))
     if counts.get("unreadable"):
@@ -61,14 +63,6 @@ def headline(values: dict[str, Any]) -> str:
             u = v.get(f"u_{unit}")
             return f"{name} {v[f'value_{unit}']:.3f}" + (f"±{u:.3f}" if u is not None else "") + f" {unit}"
     return "-"
-
-
-def printable(text: str) -> str:
-    """``text`` with its control characters escaped (a newline as ``\\n``, ESC as ``\\x1b``): a machine name
-    holding a terminal escape code must not drive the terminal, nor a newline forge a line of the list."""
-    escapes = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
-    return "".join(ch if ch.isprintable() else escapes.get(ch) or (f"\\x{ord(ch):02x}" if ord(ch) < 0x100 else
-                                                                    f"\\u{ord(ch):04x}") for ch in text)
 
 
 def printable_entry(e: Any) -> Any:

@@ -20,6 +20,7 @@ from fleet.compare.positioning import PositioningComparison
 from fleet.compare.text import change_table, run_line, value_lines
 from saved_runs.errors import EXPECTED_ERRORS
 
+from ..text import literal
 from ..widgets.plot import Plot, PlotData, Series
 
 A_STYLES = {1: "dark_green", -1: "dark_goldenrod"}  # run A dimmer than run B
@@ -71,7 +72,7 @@ class CompareScreen(Screen):
     def compose(self) -> ComposeResult:
         yield Header()
         with VerticalScroll(id="compare-body"):
-            yield Static(f"A: {escape(str(self.run_a))}\nB: {escape(str(self.run_b))}", id="compare-title")
+            yield Static(f"A: {literal(self.run_a)}\nB: {literal(self.run_b)}", id="compare-title")
             yield Plot(id="compare-plot")
             yield Static("comparing...", id="compare-table")
             yield Static(id="compare-values")

@@ -22,6 +22,7 @@ from textual.worker import get_current_worker
 from fleet.catalog.config import configured_url
 from saved_runs.errors import EXPECTED_ERRORS
 
+from ..text import literal
 from ..widgets.bars import Bar, BarGroup, Bars
 
 HISTORY_RUNS = 4  # earlier runs of the machine: the benchmark's figure (docs/diagnosis.md)
@@ -164,7 +165,8 @@ class DiagnosisScreen(Screen):
 
     def compose(self) -> ComposeResult:
         yield Header()
-        yield Static(f"diagnosis of {escape(self.run_dir.name)}", id="diag-title")  # the results name its path
+        # (the results name its path)
+        yield Static(f"diagnosis of {literal(self.run_dir.name)}", id="diag-title")
         with Horizontal(id="model-row"):
             yield Label("model file", id="model-label")
             yield Input(self.model_path, placeholder="empty: no model (nothing known)", id="model-path",
@@ -265,7 +267,7 @@ class DiagnosisScreen(Screen):
         self.result = result
         table, groups = diagnosis_view(result)
         self.query_one("#diag-title", Static).update(
-            f"diagnosis of {escape(self.run_dir.name)} · {escape(str(result.get('kind', '')))}")
+            f"diagnosis of {literal(self.run_dir.name)} · {escape(str(result.get('kind', '')))}")
         self.query_one("#diag-table", Static).update(table)
         self.query_one("#diag-bars", Bars).show(groups)
         self.status("")

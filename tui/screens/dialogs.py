@@ -165,6 +165,9 @@ class ConfirmScreen(ModalScreen[bool]):
         self.dismiss(yes)
 
 
+HELP_ACTIONS = ("help", "help_here")  # the actions that open this help (the application's, the set-up form's)
+
+
 class HelpScreen(ModalScreen[None]):
     """The keys of the screen it was opened from (and the application's); any key closes it."""
 
@@ -176,16 +179,22 @@ class HelpScreen(ModalScreen[None]):
     def compose(self) -> ComposeResult:
         rows = []
         seen = set()
-        for b in [*getattr(self.source, "BINDINGS", []), *self.app_bindings]:
+        # over a dialog only the application's priority keys reach past it (F1), not q
+        app_bindings = [b for b in self.app_bindings if b.priority or not isinstance(self.source, ModalScreen)]
+        for b in [*getattr(self.source, "BINDINGS", []), *app_bindings]:
             if not isinstance(b, Binding) or not b.description or b.description in seen or not self.live(b):
                 continue
             seen.add(b.description)
-            rows.append(f"  [b]{b.key_display or b.key:<12}[/b] {b.description}")
+            # the help's own key as both keys that open it (the footer has room for "?" only)
+            key = b.key_display or b.key
+            if b.action.removeprefix("app.") in HELP_ACTIONS:  # over a dialog only F1 reaches the application
+                key = "F1" if isinstance(self.source, ModalScreen) else "?/F1"
+            rows.append(f"  [b]{escape(key):<12}[/b] {b.description}")
         name = getattr(self.source, "SCREEN_NAME", type(self.source).__name__)
         with Vertical(id="dialog"):
             yield Static(f"Keys: {name}", id="dialog-title")
             yield Static("\n".join(rows), id="dialog-text")
-            yield Static("any key closes this help", id="dialog-keys")
+            yield Static("?/F1: this help on every screen · any key closes it", id="dialog-keys")
 
     def live(self, binding: Binding) -> bool:
         """Whether the key does something on the source screen now (its ``check_action``): help lists only those."""

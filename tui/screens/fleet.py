@@ -22,6 +22,8 @@ from fleet.overview.output import HEADER, printable, row_cells
 from fleet.overview.overview import Overview, fleet_overview
 from saved_runs.errors import UserError
 
+from ..text import literal
+
 
 class FleetScreen(Screen):
     SCREEN_NAME = "Fleet"
@@ -70,7 +72,7 @@ class FleetScreen(Screen):
         table.clear(columns=True)
         title = self.query_one("#fleet-title", Static)
         if ov is None:
-            title.update(escape(problem))
+            title.update(literal(problem))
             return
         due = sum(1 for r in ov.rows if r.overdue)
         beyond = sum(1 for r in ov.rows if r.beyond)

@@ -22,6 +22,7 @@ from saved_runs.errors import EXPECTED_ERRORS
 from saved_runs.evaluation.options import EDITIONS, METHODS
 from saved_runs.export.options import FORMATS, MODEL_NAMES, ExportOptions
 
+from ..text import literal
 from ..widgets.header import RunHeader
 from ..widgets.plot import Plot, PlotData, Series
 
@@ -200,13 +201,13 @@ class ResultsScreen(Screen):
             colour = "green" if status == "complete" else "yellow"
             parts = [f"[b]{escape(run.kind)}[/b]"]
             if str(m.get("machine") or "").strip():  # an empty machine name is left out, not shown as "machine"
-                parts.append(escape(str(m["machine"])))
+                parts.append(literal(m["machine"]))
             if str(m.get("axis") or "").strip():
-                parts.append(f"axis {escape(str(m['axis']))}")
-            parts += [f"[{colour}]{escape(status)}[/{colour}]", f"{len(run.points)} points"]
+                parts.append(f"axis {literal(m['axis'])}")
+            parts += [f"[{colour}]{literal(status)}[/{colour}]", f"{len(run.points)} points"]
         # the run directory's name at 80 columns (one line), its path where there is room
         where = str(self.run_dir) if self.app.size.width >= 140 else self.run_dir.name
-        title = " · ".join([*parts, escape(where)])
+        title = " · ".join([*parts, literal(where)])
         if self.note:
             title += f"\n[yellow]{escape(self.note)}[/yellow]"
         self.query_one("#run-title", Static).update(title)

@@ -53,19 +53,37 @@ class RunScreen(Screen):
         # the choices of the last instruction: a key the plan does not offer (redo on a positioning run)
         # is not in the footer; kept between instructions so the footer does not flicker at each capture
         self.offered: tuple[str, ...] = ()
+        self._cycle_offered = False
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         if action == "choose":
             return parameters[0] in self.offered
+        # Space is either the simulated Cycle Start or the capture: one of its two bindings is offered
+        if action == "cycle_start":
+            return self._cycle_offered
+        if action == "confirm":
+            return not self._cycle_offered
         return True
+
+    def action_cycle_start(self) -> None:
+        self.action_confirm()  # (it presses Cycle Start while one is offered)
 
     def sync_bindings(self) -> None:
         """Refresh the footer when the pending instruction offers other choices (called with every view
         refresh; cheap when nothing changed)."""
         q = self.instruction
-        if q is not None and q.choices != self.offered:
+        cycle = self.cycle_start_offered()
+        if q is not None and (q.choices != self.offered or cycle != self._cycle_offered):
             self.offered = q.choices
+            self._cycle_offered = cycle
             self.refresh_bindings()
+
+    def cycle_start_offered(self) -> bool:
+        """Space is the simulated Cycle Start now (a manual trigger rehearsed in simulation, not pressed yet
+        for this target): the footer and the help say so, not "capture"."""
+        v, q = self.session.view, self.instruction
+        return (q is not None and q.action == "cycle_start" and q.key == "target" and self.session.operator.can_act(q)
+                and v.capture_when_stable != v.ticket)
 
     @property
     def instruction(self) -> Instruct | None:
@@ -336,7 +354,8 @@ class CaptureScreen(RunScreen):
 
     SCREEN_NAME = "Capture"
     SUB_TITLE = SCREEN_NAME
-    BINDINGS = [Binding("space,enter", "confirm", "capture", key_display="Space"),
+    BINDINGS = [Binding("space,enter", "cycle_start", "Cycle Start", key_display="Space"),  # simulated manual trigger
+                Binding("space,enter", "confirm", "capture", key_display="Space"),
                 Binding("r", "choose('redo')", "redo"), Binding("s", "choose('skip')", "skip"),
                 Binding("t", "auto", "auto-capture"),
                 Binding("p", "pause", "pause"), Binding("a", "abort", "abort")]

@@ -26,9 +26,12 @@ from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Static
 
+from fleet.catalog.clock import is_future
 from fleet.catalog.config import configured_url, masked_url
 from saved_runs.catalog.folder import DAMAGED, RunSummary, list_runs  # no pandas: the browser paints at once
-from saved_runs.errors import UserError
+from saved_runs.errors import UserError, printable
+
+from ..text import literal
 
 NAME_WIDTH = 32
 KIND_WIDTH = 12
@@ -38,6 +41,7 @@ MACHINE_FLOOR = 8  # the least the machine column gets on screen ("Machine 7, be
 AXIS_MIN_WIDTH, AXIS_MAX_WIDTH = 4, 16  # wide layout: the axis column
 WIDE = 120  # from this many columns on, one line per run
 CREATED_WIDTH = 19
+
 
 
 def wrap(text: str, width: int) -> list[str]:
@@ -135,11 +139,11 @@ class RunsScreen(Screen):
         table.clear(columns=True)
         width = self.app.size.width
         wide = width >= WIDE
-        names = [r.path.name for r in self.runs]
+        names = [printable(r.path.name) for r in self.runs]
         name_w = min(max([10 if wide else CREATED_WIDTH, *map(len, names)]), NAME_WIDTH)
         # wide: the axis has a column of its own, as wide as the longest axis name up to AXIS_MAX_WIDTH (a longer
         # one wraps); narrow: it stands under the kind
-        axis_w = min(max([AXIS_MIN_WIDTH, *(len(r.axis) for r in self.runs)]), AXIS_MAX_WIDTH)
+        axis_w = min(max([AXIS_MIN_WIDTH, *(len(printable(r.axis)) for r in self.runs)]), AXIS_MAX_WIDTH)
         widths = [name_w, *([CREATED_WIDTH, KIND_WIDTH, axis_w] if wide else [KIND_WIDTH]), STATUS_WIDTH,
                   POINTS_WIDTH]
         # the rest of the screen (less a scroll bar and each column's padding of one cell either side); the
@@ -155,27 +159,34 @@ class RunsScreen(Screen):
         for label, w in zip(labels, [*widths, machine_w], strict=True):
             table.add_column(label, width=w)
         for r in self.runs:
-            # as they are (a str cell would be read as markup), cut to the column; a marked run starts with *
-            name_lines = wrap(("* " if r.path in self.marked else "") + r.path.name, name_w)
-            created = r.created.replace("T", " ").removesuffix("Z")
+            # as they are (Text: a str cell would be read as markup, "[bold red]X" shown literally), their control
+            # characters escaped (a newline or a terminal code in a run.json), cut to the column; marked: *
+            # a run dated in the future (its rig's clock was wrong; left out of trends) starts with !
+            future = is_future(r.created)
+            flags = ("* " if r.path in self.marked else "") + ("! " if future else "")
+            name_lines = wrap(flags + printable(r.path.name), name_w)
+            created = printable(r.created.replace("T", " ").removesuffix("Z"))
             empty = is_empty(r)
             # an empty run (started, then quit before its first point: F5 then q) is marked, and dim
             style = "dim" if empty else ""
-            status = Text("empty" if empty else r.status or "?", style="bold" if r.status == DAMAGED else style)
+            status = Text("empty" if empty else printable(r.status or "?"),
+                          style="bold" if r.status == DAMAGED else style)
             # the catalogue keeps no point count: the folder's browser counts them on disk
             points = Text("-" if self.from_catalog else r.points_text, justify="right", style=style)
             # machine and axis whole, never cut at the column: wrapped over as many lines as they need
-            machine = wrap(r.machine, machine_w)
+            machine = wrap(printable(r.machine), machine_w)
             if wide:
-                axis = wrap(r.axis or "-", axis_w)
-                table.add_row(Text("\n".join(name_lines), style=style), Text(created, style=style),
-                              Text(r.kind or "?", style=style), Text("\n".join(axis), style=style), status, points,
+                axis = wrap(printable(r.axis or "-"), axis_w)
+                table.add_row(Text("\n".join(name_lines), style=style),
+                              Text(created, style="bold" if future else style),
+                              Text(printable(r.kind or "?"), style=style),
+                              Text("\n".join(axis), style=style), status, points,
                               Text("\n".join(machine), style=style),
                               height=max(len(name_lines), len(axis), len(machine)))
             else:
-                axis = wrap(r.axis or "-", KIND_WIDTH)
+                axis = wrap(printable(r.axis or "-"), KIND_WIDTH)
                 table.add_row(Text("\n".join([*name_lines, created]), style=style),
-                              Text("\n".join([r.kind or "?", *axis]), style=style), status, points,
+                              Text("\n".join([printable(r.kind or "?"), *axis]), style=style), status, points,
                               Text("\n".join(machine), style=style),
                               height=max(1 + len(name_lines), 1 + len(axis), len(machine)))
         self.query_one("#runs-title", Static).update(self.title_text())
@@ -187,15 +198,18 @@ class RunsScreen(Screen):
         n = len(self.runs)
         if self.from_catalog:
             where = f"the catalogue {escape(masked_url(str(self.catalog_url)))}"
-            filters = [f"{what} {escape(v)}" for what, v in (("machine", self.machine), ("axis", self.axis)) if v]
+            filters = [f"{what} {literal(v)}" for what, v in (("machine", self.machine), ("axis", self.axis))
+                       if v]
             where += f" ({', '.join(filters)})" if filters else ""
         else:
-            where = escape(str(self.runs_dir))
+            where = literal(self.runs_dir)
         problem = f"[b]catalogue: {escape(self.catalog_problem)}[/b]\n" if self.catalog_problem else ""
         marked = f" · {len(self.marked)} marked" if self.marked else ""
         if not n:
             return problem + f"no runs in {where} yet (F2: set up a run)"
-        return problem + f"{n} run(s) in {where}{marked} · Enter opens the results"
+        future = sum(1 for r in self.runs if is_future(r.created))
+        ahead = f" · [b]{future} dated in the future (!)[/b]" if future else ""
+        return problem + f"{n} run(s) in {where}{marked}{ahead} · Enter opens the results"
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         """Only the keys that work now are offered (and listed by ? and the footer)."""
@@ -278,20 +292,24 @@ class RunsScreen(Screen):
     def show_detail(self) -> None:
         """The selected run's status in full, under the table."""
         r = self.selected()
+        name = literal(r.path.name) if r is not None else ""
         if r is None:
             text = ""
         elif r.problem:
-            text = f"{escape(r.path.name)}: [b]{DAMAGED}[/b]: {escape(r.problem)}"
+            text = f"{name}: [b]{DAMAGED}[/b]: {literal(r.problem)}"
         elif self.from_catalog:  # the catalogue's entry: where the run is, not what is on disk now
-            text = f"{escape(r.path.name)}: {escape(r.status)} when catalogued, at {escape(str(r.path))}; " \
+            text = f"{name}: {literal(r.status)} when catalogued, at {literal(r.path)}; " \
                    "Enter opens its results, t its axis' trend"
         else:
             planned = f" of {r.planned} planned" if r.planned else ""
             what = "c continues it" if r.resumable else "Enter opens its results"
-            text = f"{escape(r.path.name)}: {escape(r.status)}, {r.points} points on disk{planned}; {what}"
+            text = f"{name}: {literal(r.status)}, {r.points} points on disk{planned}; {what}"
             if is_empty(r):
-                text = (f"{escape(r.path.name)}: empty ({escape(r.status)} before its first point); c continues "
+                text = (f"{name}: empty ({literal(r.status)} before its first point); c continues "
                         f"it, or delete its folder")
+        if r is not None and is_future(r.created):
+            text += (f"\n[b]! dated in the future[/b] (created {literal(r.created)}): check the rig's clock; "
+                     "left out of trends")
         self.query_one("#run-detail", Static).update(text)
 
     def on_data_table_row_highlighted(self, event: DataTable.RowHighlighted) -> None:
@@ -325,7 +343,7 @@ class RunsScreen(Screen):
         if r is None:
             return
         if not r.resumable:
-            self.notify(f"{r.path.name} is {r.problem or r.status}; nothing to resume", severity="warning",
+            self.notify(printable(f"{r.path.name} is {r.problem or r.status}; nothing to resume"), severity="warning",
                         markup=False)
             return
         self.app.resume_run(r.path)  # type: ignore[attr-defined]

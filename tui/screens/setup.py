@@ -860,18 +860,8 @@ class SetupScreen(Screen):
         self.app.action_help()  # type: ignore[attr-defined]
 
     def action_quit_form(self) -> None:
-        """q: quit; with changes not saved, ask first."""
-        if not self.edited:
-            self.app.exit()
-            return
-
-        def answered(yes: bool | None) -> None:
-            if yes:
-                self.app.exit()
-
-        self.app.push_screen(ConfirmScreen("Quit without saving?", "The set-up on the form has changes that are "
-                                           "not saved (Ctrl+S saves them to the set-up file). Quit and lose "
-                                           "them?"), answered)
+        """q: quit; with changes not saved, ask first (the application's question, as Ctrl+Q asks it)."""
+        self.app.action_quit_app()  # type: ignore[attr-defined]
 
     def action_leave_field(self) -> None:
         self.set_focus(None)

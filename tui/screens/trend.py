@@ -16,7 +16,6 @@ from rich.text import Text
 from textual import work
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.markup import escape
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Static
 
@@ -24,8 +23,9 @@ from fleet.catalog.browse import CatalogFilter, browse_catalog, trend_values
 from fleet.catalog.database import open_catalog
 from fleet.trend.fit import DAYS_PER_YEAR, parse_date, years_between
 from fleet.trend.of_catalog import MAGNITUDE_NOTE, AxisTrend, axis_trend
-from saved_runs.errors import UserError
+from saved_runs.errors import UserError, printable
 
+from ..text import literal
 from ..widgets.plot import Plot, PlotData, Series
 
 
@@ -69,7 +69,7 @@ def trend_text(at: AxisTrend) -> str:
     if t.limit_um is not None:
         limit = f"limit {t.limit_um:g} {u}"
         if t.beyond_limit:
-            limit += f": {at.beyond_text}"
+            limit += f": {printable(at.beyond_text)}"  # (it names a run: as every name shown, escaped)
         if t.crossing_date is not None:
             ud = f" ± {t.u_crossing_days:.0f} d" if t.u_crossing_days is not None else ""
             limit += f"{';' if t.beyond_limit else ':'} the line reaches it {t.crossing_date[:10]}{ud}"
@@ -122,7 +122,7 @@ class TrendScreen(Screen):
     def load(self, first: bool = False) -> None:
         """Read the trend in a worker (a database server that does not answer must not freeze the
         screen; docs/fleet.md) and show it when it is read."""
-        self.query_one("#trend-title", Static).update(escape(f"reading the trend of {self.value} ..."))
+        self.query_one("#trend-title", Static).update(literal(f"reading the trend of {self.value} ..."))
         self.read(first)
 
     @work(thread=True, exclusive=True, group="trend")
@@ -148,12 +148,12 @@ class TrendScreen(Screen):
         table = self.query_one(DataTable)
         table.clear(columns=True)
         if at is None:
-            title.update(escape(problem))
+            title.update(literal(problem))
             self.query_one("#trend-plot", Plot).show(PlotData())
             self.query_one("#trend-fit", Static).update("")
             return
-        title.update(escape(f"{at.value} · machine {at.machine or '-'} · axis {at.axis or '-'} "
-                            f"(v: next value of {len(self.values)})"))
+        title.update(literal(f"{at.value} · machine {at.machine or '-'} · axis {at.axis or '-'} "
+                             f"(v: next value of {len(self.values)})"))
         self.query_one("#trend-plot", Plot).show(trend_plot(at))
         self.query_one("#trend-fit", Static).update(Text(trend_text(at)))
         stepped = {s.to_run: s for s in at.trend.steps}
@@ -161,9 +161,11 @@ class TrendScreen(Screen):
             table.add_column(label)
         for p in at.trend.points:
             step = stepped.get(p.run)
-            table.add_row(Text(p.date.replace("T", " ").removesuffix("Z")), Text(f"{p.value_um:.3f}", justify="right"),
+            table.add_row(Text(printable(p.date.replace("T", " ").removesuffix("Z"))),
+                          Text(f"{p.value_um:.3f}", justify="right"),
                           Text("-" if p.u_um is None else f"{p.u_um:.3f}", justify="right"),
-                          Text("" if step is None else f"{step.change_um:+.3f}", justify="right"), Text(p.name))
+                          Text("" if step is None else f"{step.change_um:+.3f}", justify="right"),
+                          Text(printable(p.name)))
 
     def action_next_value(self) -> None:
         i = self.values.index(self.value) if self.value in self.values else -1
