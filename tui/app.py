@@ -138,7 +138,9 @@ class GuidewayApp(App[None]):
 
     # -- runs ---------------------------------------------------------------------------------------
     def start_run(self, source: dict[str, Any], out: Path | None, *, simulate: bool,
-                  source_name: str = "set-up") -> None:
+                  source_name: str = "set-up", sim: SimOptions | None = None) -> None:
+        """A new run of the set-up ``source`` into ``out`` (None: ``RUNS/KIND-<UTC time>``); ``sim``: the simulated
+        world when ``simulate`` (None: the application's, ``--seed`` ...)."""
         from acquisition.setup.files import setup_from_dict
 
         from .screens.run import ConnectScreen
@@ -149,7 +151,7 @@ class GuidewayApp(App[None]):
         if out is None:
             out = self.runs_dir / f"{info.kind}-{datetime.now(UTC).strftime('%Y%m%dT%H%M%SZ')}"
         self._begin(RunSession(self.post_message, info, source, out,
-                               simulate=self.sim_options if simulate else None, source_name=source_name,
+                               simulate=(sim or self.sim_options) if simulate else None, source_name=source_name,
                                live_interval_s=self.live_interval_s), ConnectScreen)
 
     def resume_run(self, run_dir: Path) -> None:
