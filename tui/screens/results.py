@@ -224,14 +224,15 @@ class ResultsScreen(Screen):
             yield Plot(id="plot")
             with VerticalScroll(id="results-side"):
                 yield Static("evaluating…", id="summary")
+                yield Static(id="load")  # the steps that load the table written last (above the keys' line)
                 yield Static(id="options")
-                yield Static(id="load")
         yield Static(id="written")
         yield Footer()
 
     def on_mount(self) -> None:
         self.query_one("#plot", Plot).empty_text = "evaluating…"
         self.query_one("#verdict").display = False
+        self.query_one("#load").display = False  # until a table is written: an empty line would push the values
         self.show_title()
         self.evaluate()
 
@@ -479,6 +480,7 @@ class ResultsScreen(Screen):
         text.append(":\n" + "\n".join(table.steps))
         load = self.query_one("#load", Static)
         load.update(text)
+        load.display = True
         self.refresh_bindings()
         self.call_after_refresh(lambda: load.scroll_visible(top=True, animate=False))
 
