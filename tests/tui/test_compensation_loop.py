@@ -164,24 +164,29 @@ def test_export_measure_again_and_verify_in_simulation(found: Path, tmp_path: Pa
     assert out["after_escape"] == "ResultsScreen"
 
 
+CONTROLLER = "modbus-tcp://127.0.0.1:9"  # nothing listens there: a run that is started does not get far
+
+
 def real_found(tmp_path: Path) -> Path:
     """A saved positioning run measured with real devices (no ``simulation`` record)."""
     run = tmp_path / "runs" / "positioning-x"
     shutil.copytree(RUNS / "positioning-x", run)
     meta = json.loads((run / "run.json").read_text())
     meta.pop("simulation")
+    meta["setup_source"]["controller"] = {"url": CONTROLLER}
     (run / "run.json").write_text(json.dumps(meta))
     return run
 
 
-def confirm_dialog(run: Path, answer: str) -> dict[str, Any]:
-    """Results of ``run`` (real devices), key 1, key n, then ``answer`` in the confirm dialog; ``start_run``
-    is recorded, not run (there is no controller to connect to here)."""
+def confirm_dialog(run: Path, answer: str, *, record: bool = True) -> dict[str, Any]:
+    """Results of ``run`` (real devices), key 1, key n, then ``answer`` in the confirm dialog; ``record``:
+    ``start_run`` is recorded, not run (there is no controller to connect to here)."""
     out: dict[str, Any] = {"started": []}
 
     async def main() -> None:
         app = GuidewayApp(runs_dir=run.parent, start="runs")
-        app.start_run = lambda *a, **k: out["started"].append((a, k))  # type: ignore[method-assign]
+        if record:
+            app.start_run = lambda *a, **k: out["started"].append((a, k))  # type: ignore[method-assign]
         async with app.run_test(size=(80, 24)) as pilot:
             app.open_results(run)
             await wait_for_app(pilot, lambda: getattr(app.screen, "evaluation", None) is not None,
@@ -197,6 +202,11 @@ def confirm_dialog(run: Path, answer: str) -> dict[str, Any]:
             await pilot.pause()
             out["after"] = screen_name(app)
             out["session"] = app.session
+            if not record:  # the run starts, cannot open the controller and ends: back on the found run's results
+                await wait_for_app(pilot, lambda: screen_name(app) == "ResultsScreen" and app.screen is not results,
+                                   what="the results again", timeout_s=30)
+                await pilot.pause()
+                out["back"] = (app.screen.run_dir, widget_text(app, "#run-title"))
 
     asyncio.run(main())
     return out
@@ -223,6 +233,40 @@ def test_real_devices_yes_starts_the_as_left_run_with_the_table(tmp_path: Path) 
     assert source["compensation"] == {"file": str(table.resolve()), "format": "linuxcnc", "comp_file_type": 1}
     stored = json.loads((run / "run.json").read_text())["setup_source"]
     assert {k: v for k, v in source.items() if k != "compensation"} == stored
+
+
+def test_a_run_that_does_not_start_comes_back_to_the_found_runs_results(tmp_path: Path) -> None:
+    run = real_found(tmp_path)
+    out = confirm_dialog(run, "y", record=False)
+    where, title = out["back"]
+    assert where == run and "did not start" in title and "127.0.0.1:9" in " ".join(title.split())
+
+
+def test_no_controller_in_the_set_up_is_said_before_asking(tmp_path: Path) -> None:
+    run = real_found(tmp_path)
+    meta = json.loads((run / "run.json").read_text())
+    del meta["setup_source"]["controller"]
+    (run / "run.json").write_text(json.dumps(meta))
+    out: dict[str, Any] = {}
+
+    async def main() -> None:
+        app = GuidewayApp(runs_dir=run.parent, start="runs")
+        async with app.run_test(size=(80, 24)) as pilot:
+            app.open_results(run)
+            await wait_for_app(pilot, lambda: getattr(app.screen, "evaluation", None) is not None,
+                               what="the evaluation", timeout_s=60)
+            results = app.screen
+            await pilot.press("1")
+            await wait_for_app(pilot, lambda: results.table is not None, what="the table", timeout_s=60)
+            await pilot.press("n")
+            await pilot.pause()
+            out["screen"] = screen_name(app)
+            out["session"] = app.session
+            out["notes"] = [str(n.message) for n in app._notifications]
+
+    asyncio.run(main())
+    assert out["screen"] == "ResultsScreen" and out["session"] is None
+    assert any("names no controller" in n for n in out["notes"])
 
 
 def test_a_csv_table_shows_its_steps_but_offers_no_measurement(tmp_path: Path) -> None:

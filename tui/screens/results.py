@@ -507,17 +507,23 @@ class ResultsScreen(Screen):
         out = as_left_dir(self.run_dir)
         app: Any = self.app
         simulated = "simulation" in run.meta or bool(getattr(app, "simulate", False))
+        name = f"{self.run_dir.name} + {table.path.name}"
         if simulated:
-            app.start_run(source, out, simulate=True, source_name=f"{self.run_dir.name} + {table.path.name}",
+            app.start_run(source, out, simulate=True, source_name=name, back=self.run_dir,
                           sim=as_left_simulation(run.meta, app.sim_options))
+            return
+        if not setup.devices.controller_url:  # type: ignore[union-attr]
+            self.notify(f"cannot measure again: the set-up of {self.run_dir.name} names no controller ([controller] "
+                        "url); start the as-left run from the Set-up screen (F2) with the controller's address and "
+                        f"[compensation] file = {table.path}", severity="error", markup=False)
             return
 
         def answered(yes: bool | None) -> None:
             if yes:
-                app.start_run(source, out, simulate=False, source_name=f"{self.run_dir.name} + {table.path.name}")
+                app.start_run(source, out, simulate=False, source_name=name, back=self.run_dir)
             else:
-                self.notify(f"not started: load {table.path.name} into the controller first (the steps under the "
-                            "values), then n again", severity="warning", markup=False)
+                self.notify(f"not started: load {table.path.name} into the controller first (the steps on this "
+                            "screen), then n again", severity="warning", markup=False)
 
         app.push_screen(ConfirmScreen(
             "Is the table loaded in the controller?",
