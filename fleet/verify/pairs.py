@@ -101,33 +101,28 @@ def found_left_pairs(runs: list[Path]) -> Pairs:
 
 
 def found_run_of(left: Path, search: list[Path]) -> Path | None:
-    """The as-found run of the run at ``left``: the run whose results/ holds the table ``left`` was measured
-    with (exports.json, else the table's own bytes among ``results/compensation-*``, as verify finds it),
-    looked for first where the table lies (``FOUND/results/compensation-*``), then among the run
-    directories in the folders ``search``; None when ``left`` was measured with no table or none is found."""
+    """The as-found run of the run at ``left``: first the run where the table lies (``FOUND/results/...``) when
+    its results/ holds it (exports.json, else the table's own bytes among ``results/compensation-*``, as verify
+    finds it), then a run in the folders ``search`` whose exports.json records it; None when ``left`` was
+    measured with no table or none is found."""
     meta = _meta(left)
     sha = table_sha256(meta)
     if sha is None:
         return None
-    candidates: list[Path] = []
+    left_resolved = left.resolve()
     path = (meta.get("compensation") or {}).get("path")
-    if isinstance(path, str) and Path(path).parent.name == "results":
-        candidates.append(Path(path).parent.parent)
+    if isinstance(path, str) and Path(path).parent.name == "results":  # FOUND/results/compensation-*
+        owner = Path(path).parent.parent
+        if (owner / "run.json").is_file() and owner.resolve() != left_resolved and \
+                find_export(owner, sha, run_link(owner).uid) is not None:
+            return owner
+    # elsewhere (export --out): the exports.json records of the runs in the folders (no file is hashed)
     for folder in search:
         try:
-            candidates += sorted(d for d in Path(folder).iterdir() if (d / "run.json").is_file())
+            runs = sorted(d for d in Path(folder).iterdir() if (d / "run.json").is_file())
         except OSError:
             continue
-    left_resolved = left.resolve()
-    seen: set[Path] = set()
-    for cand in candidates:
-        try:
-            key = cand.resolve()
-        except OSError:
-            continue
-        if key in seen or key == left_resolved or not (cand / "run.json").is_file():
-            continue
-        seen.add(key)
-        if sha in run_link(cand).exported or find_export(cand, sha, run_link(cand).uid) is not None:
-            return cand
+        for cand in runs:
+            if sha in run_link(cand).exported and cand.resolve() != left_resolved:
+                return cand
     return None

@@ -37,3 +37,16 @@ def test_a_table_written_elsewhere_is_found_from_the_folder(tmp_path: Path) -> N
     assert found_run_of(found, [runs]) is None
     measured_with(found, table, json.loads((found / "run.json").read_text())["uid"])
     assert found_left_pairs([found]).found_of == {}
+
+
+def test_a_table_in_the_found_runs_results_is_found_by_its_bytes_without_the_record(tmp_path: Path) -> None:
+    found, left = tmp_path / "a" / "found", tmp_path / "b" / "left"  # different folders: no folder search
+    shutil.copytree(RUN, found)
+    shutil.copytree(RUN, left)
+    assert guideway("export", found, "--format", "fanuc").returncode == 0
+    table = found / "results" / "compensation-fanuc.txt"
+    (found / "results" / "exports.json").unlink()
+    measured_with(left, table, "uid-left")
+    assert found_run_of(left, []) == found
+    table.write_text(table.read_text() + "\n")  # other bytes than the run was measured with: not that table
+    assert found_run_of(left, []) is None
