@@ -242,11 +242,8 @@ def test_a_run_that_does_not_start_comes_back_to_the_found_runs_results(tmp_path
     assert where == run and "did not start" in title and "127.0.0.1:9" in " ".join(title.split())
 
 
-def test_no_controller_in_the_set_up_is_said_before_asking(tmp_path: Path) -> None:
-    run = real_found(tmp_path)
-    meta = json.loads((run / "run.json").read_text())
-    del meta["setup_source"]["controller"]
-    (run / "run.json").write_text(json.dumps(meta))
+def refused_n(run: Path, after_export: Any = None) -> dict[str, Any]:
+    """Results of ``run`` (real devices), key 1, ``after_export(table)``, key n: what is on screen after it."""
     out: dict[str, Any] = {}
 
     async def main() -> None:
@@ -258,6 +255,8 @@ def test_no_controller_in_the_set_up_is_said_before_asking(tmp_path: Path) -> No
             results = app.screen
             await pilot.press("1")
             await wait_for_app(pilot, lambda: results.table is not None, what="the table", timeout_s=60)
+            if after_export is not None:
+                after_export(results.table.path)
             await pilot.press("n")
             await pilot.pause()
             out["screen"] = screen_name(app)
@@ -265,8 +264,24 @@ def test_no_controller_in_the_set_up_is_said_before_asking(tmp_path: Path) -> No
             out["notes"] = [str(n.message) for n in app._notifications]
 
     asyncio.run(main())
+    return out
+
+
+def test_no_controller_in_the_set_up_is_said_before_asking(tmp_path: Path) -> None:
+    run = real_found(tmp_path)
+    meta = json.loads((run / "run.json").read_text())
+    del meta["setup_source"]["controller"]
+    (run / "run.json").write_text(json.dumps(meta))
+    out = refused_n(run)
     assert out["screen"] == "ResultsScreen" and out["session"] is None
     assert any("names no controller" in n for n in out["notes"])
+
+
+def test_a_table_changed_after_it_was_written_is_refused(tmp_path: Path) -> None:
+    run = real_found(tmp_path)
+    out = refused_n(run, lambda table: table.write_text(table.read_text() + "0.0 0.0 0.0\n"))
+    assert out["screen"] == "ResultsScreen" and out["session"] is None  # no dialog for other bytes
+    assert any("changed since it was written" in n for n in out["notes"])
 
 
 def test_a_csv_table_shows_its_steps_but_offers_no_measurement(tmp_path: Path) -> None:

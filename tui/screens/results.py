@@ -499,10 +499,16 @@ class ResultsScreen(Screen):
             source = as_left_source(run.meta, self.run_dir, table.path, table.fmt,
                                     comp_file_type=table.comp_file_type, backlash=table.backlash)
             setup = setup_from_dict(source, f"{self.run_dir.name}/run.json setup_source")
-            load_compensation(setup.compensation, setup)  # type: ignore[arg-type, union-attr]  (checked here, not
-            # in the run's thread: a table that does not fit is said on this screen)
+            # read as its controller reads it here, not in the run's thread: a table that does not fit is said on
+            # this screen
+            active = load_compensation(setup.compensation, setup)  # type: ignore[arg-type, union-attr]
         except EXPECTED_ERRORS as exc:
             self.notify(f"cannot measure again: {exc}", severity="error", markup=False)
+            return
+        if active.sha256 != table.sha256:  # the dialog quotes the bytes the steps were written for
+            self.notify(f"cannot measure again: {table.path} changed since it was written (sha256 now "
+                        f"{active.sha256[:12]}…, written {table.sha256[:12]}…); write the table again (1-3)",
+                        severity="error", markup=False)
             return
         out = as_left_dir(self.run_dir)
         app: Any = self.app
