@@ -19,7 +19,7 @@ import pandas as pd
 import pytest
 
 from tests.cli import guideway
-from tests.tui.sessions import answer_all, screen_lines, screen_name, widget_text
+from tests.tui.sessions import answer_all, process_json, screen_lines, screen_name, widget_text
 from tests.waiting import wait_for_app
 from tui.app import GuidewayApp
 
@@ -373,3 +373,40 @@ def test_the_runs_browser_marks_found_left_pairs_and_v_verifies(tmp_path: Path) 
     assert out["v"] == {"stranger": False, "left": True, "copy": False, "found": False}
     assert "v verifies it against found" in " ".join(out["detail"].split()) and "v verify" in out["footer"]
     assert out["pushed"] == (f["found"], f["left"])
+
+
+@pytest.mark.parametrize("size", [(80, 24), (160, 48)])
+def test_the_verify_screen_at_80x24_and_160x48(tmp_path: Path, size: tuple[int, int]) -> None:
+    f = pair_folder(tmp_path)  # left holds found's own points: nothing removed, E found = E left
+    out: dict[str, Any] = {}
+
+    async def main() -> None:
+        from tui.screens.verify import VerifyScreen
+
+        app = GuidewayApp(runs_dir=f["runs"], start="runs")
+        async with app.run_test(size=size) as pilot:
+            await wait_for_app(pilot, lambda: screen_name(app) == "RunsScreen", what="the runs browser")
+            screen = VerifyScreen(f["found"], f["left"])
+            app.push_screen(screen)
+            await wait_for_app(pilot, lambda: screen.verification is not None or bool(screen.problem),
+                               what="the verification", timeout_s=60)
+            await pilot.pause()
+            out["problem"] = screen.problem
+            out["values"] = widget_text(app, "#verify-values")
+            out["first"] = screen_lines(app)
+            await pilot.press("pagedown", "pagedown", "pagedown")
+            await pilot.pause()
+            out["later"] = screen_lines(app)
+
+    asyncio.run(main())
+    e = process_json(f["found"])["iso230_2"]["E"]  # positioning-x's readings need the environment: process's E
+    assert not out["problem"]
+    first = "\n".join(out["first"])
+    assert "verdict: E" in first and f"{e:.3f}" in first
+    if size[0] == 80:  # the compact table: E's row on the first screen, 0 % removed; the notes scrolled to
+        row = value_row(out["values"], "E")
+        assert row["found"] == row["left"] == f"{e:.3f}" and row["reduction"] == "0.0"
+        assert any(ln.startswith(" note:") for ln in out["later"])
+    else:  # the command line's own value lines, with the predicted values as a repeat shows them
+        assert "again" in out["values"] and "pred." in out["values"]
+        assert any(ln.strip().startswith("E ") and f"{e:.3f}" in ln for ln in out["first"])
