@@ -81,6 +81,7 @@ class GuidewayApp(App[None]):
         self.live_interval_s = live_interval_s
         self.session: RunSession | None = None
         self.quitting = False
+        self.started_from: Path | None = None  # the Results a run was started from (an as-left run), else None
         self._question_open = 0  # ticket of the question shown in a dialog
 
     def on_mount(self) -> None:
@@ -144,18 +145,22 @@ class GuidewayApp(App[None]):
 
     # -- runs ---------------------------------------------------------------------------------------
     def start_run(self, source: dict[str, Any], out: Path | None, *, simulate: bool,
-                  source_name: str = "set-up") -> None:
+                  source_name: str = "set-up", sim: SimOptions | None = None, back: Path | None = None) -> None:
+        """A new run of the set-up ``source`` into ``out`` (None: ``RUNS/KIND-<UTC time>``); ``sim``: the simulated
+        world when ``simulate`` (None: the application's, ``--seed`` ...); ``back``: the run whose Results started
+        it (an as-left run), shown again with the reason when the run does not start."""
         from acquisition.setup.files import setup_from_dict
 
         from .screens.run import ConnectScreen
         from .session import RunSession
 
         setup = setup_from_dict(source, source_name)
+        self.started_from = back
         info = plan_info(setup)
         if out is None:
             out = self.runs_dir / f"{info.kind}-{datetime.now(UTC).strftime('%Y%m%dT%H%M%SZ')}"
         self._begin(RunSession(self.post_message, info, source, out,
-                               simulate=self.sim_options if simulate else None, source_name=source_name,
+                               simulate=(sim or self.sim_options) if simulate else None, source_name=source_name,
                                live_interval_s=self.live_interval_s), ConnectScreen)
 
     def resume_run(self, run_dir: Path) -> None:
@@ -237,6 +242,10 @@ class GuidewayApp(App[None]):
         else:
             note = (f"run {outcome.exit_status}: {outcome.reason}; the points are kept and the run can be "
                     f"resumed (c on the Runs screen)")
+        if outcome is None and not (message.run_dir / "run.json").exists() and self.started_from is not None:
+            # an as-left run started from its as-found run's Results: back there, with the reason
+            self.open_results(self.started_from, note)
+            return
         if outcome is None and not (message.run_dir / "run.json").exists():
             # nothing on disk (a device that could not be opened): back to the form, where the reason stays
             # in plain words until the next F5 (not a toast that fades and leaves "set-up valid")

@@ -6,9 +6,11 @@ the diagnosis of the run (tui/screens/diagnosis.py)."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from rich.text import Text
 from textual import work
 from textual.app import ComposeResult
 from textual.binding import Binding
@@ -25,6 +27,7 @@ from saved_runs.export.options import FORMATS, MODEL_NAMES, ExportOptions
 from ..text import literal
 from ..widgets.header import RunHeader
 from ..widgets.plot import Plot, PlotData, Series
+from .dialogs import ConfirmScreen
 
 LINE_NAMES = {"endpoint": "end-point", "least_squares": "least squares", "minimum_zone": "minimum zone"}
 LINE_STYLES = {"endpoint": "yellow", "least_squares": "green", "minimum_zone": "magenta"}
@@ -133,6 +136,44 @@ def default_model_path(run_dir: Path, kind: str) -> str:
     return ""
 
 
+CONTROLLER_FORMATS = ("linuxcnc", "fanuc", "siemens")  # acquisition.setup.compensation: a controller applies them
+
+
+@dataclass(frozen=True)
+class WrittenTable:
+    """A compensation table the screen wrote: where, its format and SHA-256, the steps that load it (numbered, as
+    ``guideway export`` prints them), and what the controller needs besides the file (the LinuxCNC
+    COMP_FILE_TYPE; ``backlash``: the lost motion for the backlash parameter, um or arcsec, Siemens MD32450)."""
+
+    path: Path
+    fmt: str
+    sha256: str
+    steps: list[str]
+    comp_file_type: int | None = None
+    backlash: float | None = None
+
+
+def written_table(meta: dict[str, Any], export: Any, path: Path, options: ExportOptions) -> WrittenTable:
+    """The :class:`WrittenTable` of an export just written (``meta``: the run's run.json)."""
+    from saved_runs.export.load import export_load_instructions, numbered
+    from saved_runs.export.provenance import sha256_of
+
+    axis = str((meta.get("setup") or {}).get("axis_name") or meta.get("axis") or "X")
+    steps = numbered(export_load_instructions(export, path, options, axis))
+    # a one-table export leaves the reversal to the backlash parameter: the lost motion -B̄ the steps name
+    # (MD32450 takes a lost motion >= 0; a negative one is left to the technician, as the steps say)
+    lost = -float(export.table.backlash) if export.table.mode == "backlash" and options.fmt == "siemens" else None
+    backlash = round(lost, 3) if lost is not None and lost >= 0 else None
+    return WrittenTable(Path(path), options.fmt, sha256_of(Path(path)), steps,
+                        options.linuxcnc_type if options.fmt == "linuxcnc" else None, backlash)
+
+
+def as_left_name(found: Path) -> str:
+    from acquisition.as_left import as_left_dir
+
+    return as_left_dir(found).name
+
+
 class ResultsScreen(Screen):
     SCREEN_NAME = "Results"
     SUB_TITLE = SCREEN_NAME
@@ -148,6 +189,9 @@ class ResultsScreen(Screen):
                 Binding("3", "export('siemens')", "Siemens table", show=False),
                 Binding("4", "export('csv')", "CSV table", show=False),
                 Binding("d", "diagnose", "diagnose"),
+                # the loop (docs/compensation.md): measure again with the table just written, verify the as-left run
+                Binding("n", "measure_again", "measure again"),
+                Binding("v", "verify", "verify"),
                 Binding("pagedown", "scroll_values(1)", "scroll down", show=False),
                 Binding("pageup", "scroll_values(-1)", "scroll up", show=False),
                 Binding("p", "certificate", "certificate (PDF)", show=False),
@@ -169,6 +213,8 @@ class ResultsScreen(Screen):
         self.run: Any = None
         self.evaluating = False
         self.problem = ""
+        self.table: WrittenTable | None = None  # the controller table written last (keys 1-3): n measures again
+        self.found_run: Path | None = None  # this run's as-found run (it was measured with a table exported there)
 
     def compose(self) -> ComposeResult:
         yield RunHeader()
@@ -180,6 +226,7 @@ class ResultsScreen(Screen):
             yield Plot(id="plot")
             with VerticalScroll(id="results-side"):
                 yield Static("evaluating…", id="summary")
+                yield Static(id="load")  # the steps that load the table written last (above the keys' line)
                 yield Static(id="options")
         yield Static(id="written")
         yield Footer()
@@ -187,6 +234,7 @@ class ResultsScreen(Screen):
     def on_mount(self) -> None:
         self.query_one("#plot", Plot).empty_text = "evaluating…"
         self.query_one("#verdict").display = False
+        self.query_one("#load").display = False  # until a table is written: an empty line would push the values
         self.show_title()
         self.evaluate()
 
@@ -210,6 +258,8 @@ class ResultsScreen(Screen):
         title = " · ".join([*parts, literal(where)])
         if self.note:
             title += f"\n[yellow]{escape(self.note)}[/yellow]"
+        if self.found_run is not None:  # the loop's next step: said where it is seen first
+            title += f"\nas-left of {escape(self.found_run.name)} (measured with its table): [b]v[/b] verifies it"
         self.query_one("#run-title", Static).update(title)
 
     def options(self) -> dict[str, Any]:
@@ -225,6 +275,10 @@ class ResultsScreen(Screen):
             return self.kind == KIND_ACTIONS[action]
         if action == "write":
             return self.evaluation is not None
+        if action == "measure_again":
+            return self.table is not None
+        if action == "verify":
+            return self.found_run is not None
         if action == "diagnose":  # the diagnosis covers straightness and linear positioning runs
             return self.kind == "straightness" or (self.kind == "positioning" and self.axis_type == "linear")
         return True
@@ -244,12 +298,23 @@ class ResultsScreen(Screen):
             from saved_runs.evaluation.evaluate import process_run_dir
 
             run, evaluation = process_run_dir(self.run_dir, **options)
+            found = self._found_run(run)
         except EXPECTED_ERRORS as exc:
             if not worker.is_cancelled:
                 self.app.call_from_thread(self.show_problem, str(exc))
             return
         if not worker.is_cancelled:  # a newer evaluation (another option) replaces this one
+            self.found_run = found
             self.app.call_from_thread(self.show, run, evaluation)
+
+    def _found_run(self, run: Any) -> Path | None:
+        """The as-found run of this one when it was measured with a table exported from another run (that run's
+        results/ records it): looked for where the table lies, beside this run and in the runs folder."""
+        if run.kind != "positioning":
+            return None
+        from fleet.verify.pairs import found_run_of
+
+        return found_run_of(self.run_dir, [self.run_dir.parent, getattr(self.app, "runs_dir", self.run_dir.parent)])
 
     def show_problem(self, text: str) -> None:
         self.evaluating = False
@@ -404,11 +469,95 @@ class ResultsScreen(Screen):
         if self.kind == "positioning":
             from saved_runs.export.build import write_export
 
+            tables: list[WrittenTable] = []
+
             def write() -> tuple[Path, str]:
-                _, export, path = write_export(self.run_dir, ExportOptions(fmt=fmt, model=self.model))
+                options = ExportOptions(fmt=fmt, model=self.model)
+                run, export, path = write_export(self.run_dir, options)
+                tables.append(written_table(run.meta, export, path, options))
                 return path, residual_text(export.to_dict())  # the same object as guideway export --json
 
             self._written(write)
+            if tables:
+                self.app.call_from_thread(self.show_load, tables[0])
+
+    def show_load(self, table: WrittenTable) -> None:
+        """The steps that load the table just written into its controller (``guideway export`` prints them) and,
+        for a controller table, ``n`` to measure again with it; scrolled into view."""
+        self.table = table if table.fmt in CONTROLLER_FORMATS else None
+        # a Text, not markup: the steps hold INI section names ([JOINT_n]) that markup would take for tags
+        text = Text.assemble((f"load {table.path.name}", "bold"), f" (sha256 {table.sha256[:12]}…) into the "
+                             "controller as below (the tool writes nothing into it)")
+        if self.table is not None:  # the next step first: seen without scrolling
+            text.append_text(Text.assemble(", then ", ("n", "bold"), " measure again with it (the as-left run "
+                                           f"{as_left_name(self.run_dir)}, same set-up); ", ("v", "bold"),
+                                           " then verifies it"))
+        text.append(":\n" + "\n".join(table.steps))
+        load = self.query_one("#load", Static)
+        load.update(text)
+        load.display = True
+        self.refresh_bindings()
+        self.call_after_refresh(lambda: load.scroll_visible(top=True, animate=False))
+
+    def action_measure_again(self) -> None:
+        """A new positioning run on this run's set-up with the table written last active in the controller: in
+        simulation the simulated controller applies it; with real devices the technician confirms first that it
+        is loaded (the tool never loads it)."""
+        table, run = self.table, self.run
+        if table is None or run is None:
+            return
+        from acquisition.as_left import as_left_dir, as_left_simulation, as_left_source
+        from acquisition.compensation import load_compensation
+        from acquisition.setup.files import setup_from_dict
+
+        try:
+            source = as_left_source(run.meta, self.run_dir, table.path, table.fmt,
+                                    comp_file_type=table.comp_file_type, backlash=table.backlash)
+            setup = setup_from_dict(source, f"{self.run_dir.name}/run.json setup_source")
+            # read as its controller reads it here, not in the run's thread: a table that does not fit is said on
+            # this screen
+            active = load_compensation(setup.compensation, setup)  # type: ignore[arg-type, union-attr]
+        except EXPECTED_ERRORS as exc:
+            self.notify(f"cannot measure again: {exc}", severity="error", markup=False)
+            return
+        if active.sha256 != table.sha256:  # the dialog quotes the bytes the steps were written for
+            self.notify(f"cannot measure again: {table.path} changed since it was written (sha256 now "
+                        f"{active.sha256[:12]}…, written {table.sha256[:12]}…); write the table again (1-3)",
+                        severity="error", markup=False)
+            return
+        out = as_left_dir(self.run_dir)
+        app: Any = self.app
+        simulated = "simulation" in run.meta or bool(getattr(app, "simulate", False))
+        name = f"{self.run_dir.name} + {table.path.name}"
+        if simulated:
+            app.start_run(source, out, simulate=True, source_name=name, back=self.run_dir,
+                          sim=as_left_simulation(run.meta, app.sim_options))
+            return
+        if not setup.devices.controller_url:  # type: ignore[union-attr]
+            self.notify(f"cannot measure again: the set-up of {self.run_dir.name} names no controller ([controller] "
+                        "url); start the as-left run from the Set-up screen (F2) with the controller's address and "
+                        f"[compensation] file = {table.path}", severity="error", markup=False)
+            return
+
+        def answered(yes: bool | None) -> None:
+            if yes:
+                app.start_run(source, out, simulate=False, source_name=name, back=self.run_dir)
+            else:
+                self.notify(f"not started: load {table.path.name} into the controller first (the steps on this "
+                            "screen), then n again", severity="warning", markup=False)
+
+        app.push_screen(ConfirmScreen(
+            "Is the table loaded in the controller?",
+            f"Measure {out.name} with {table.path} (sha256 {table.sha256[:12]}…) active in the controller? The tool "
+            "does not load it: answer y only when the steps are done (the controller restarted or referenced with "
+            "this table). The run records this file as the table that was active."), answered)
+
+    def action_verify(self) -> None:
+        """The Verify screen: this as-left run against its as-found run."""
+        if self.found_run is not None:
+            from .verify import VerifyScreen
+
+            self.app.push_screen(VerifyScreen(self.found_run, self.run_dir))
 
     def _written(self, write: Any) -> None:
         try:

@@ -28,6 +28,7 @@ from textual.widgets import DataTable, Footer, Header, Static
 
 from fleet.catalog.clock import is_future
 from fleet.catalog.config import configured_url, masked_url
+from fleet.verify.pairs import Pairs, found_left_pairs
 from saved_runs.catalog.folder import DAMAGED, RunSummary, list_runs  # no pandas: the browser paints at once
 from saved_runs.errors import UserError, printable
 
@@ -65,6 +66,7 @@ class RunsScreen(Screen):
                 Binding("m", "filter('machine')", "machine"),
                 Binding("a", "filter('axis')", "axis"), Binding("l", "source", "folder/catalogue"),
                 Binding("r", "reload", "reload"), Binding("f2", "app.setup", "set-up"),
+                Binding("v", "verify", "verify"),  # an as-left run against its as-found run
                 # the first / last run (the table's own Home / End scroll sideways)
                 Binding("home,ctrl+home", "edge(0)", "first run", show=False, priority=True),
                 Binding("end,ctrl+end", "edge(1)", "last run", show=False, priority=True)]
@@ -84,6 +86,7 @@ class RunsScreen(Screen):
         self.catalog_problem = ""
         self.marked: list[Path] = []  # at most two, in the order they were marked
         self.runs: list[RunSummary] = []
+        self.pairs = Pairs({}, {})  # as-found / as-left pairs among the runs listed (fleet/verify/pairs.py)
 
     def compose(self) -> ComposeResult:
         yield Header()
@@ -135,6 +138,7 @@ class RunsScreen(Screen):
         table = self.query_one(DataTable)
         keep = self.selected()
         self.runs = runs
+        self.pairs = found_left_pairs([r.path for r in runs])
         self.marked = [p for p in self.marked if any(r.path == p for r in runs)]
         table.clear(columns=True)
         width = self.app.size.width
@@ -165,6 +169,8 @@ class RunsScreen(Screen):
             future = is_future(r.created)
             flags = ("* " if r.path in self.marked else "") + ("! " if future else "")
             name_lines = wrap(flags + printable(r.path.name), name_w)
+            pair = self.pair_text(r.path)
+            name_lines += wrap(printable(pair), name_w) if pair else []
             created = printable(r.created.replace("T", " ").removesuffix("Z"))
             empty = is_empty(r)
             # an empty run (started, then quit before its first point: F5 then q) is marked, and dim
@@ -219,7 +225,29 @@ class RunsScreen(Screen):
             return self.catalog_url is not None
         if action == "compare":
             return len(self.marked) == 2
+        if action == "verify":
+            r = self.selected()
+            return r is not None and r.path in self.pairs.found_of
         return True
+
+    def pair_text(self, path: Path) -> str:
+        """``left of FOUND`` for an as-left run, ``found, left: LEFT`` for its as-found run ('' otherwise)."""
+        if path in self.pairs.found_of:
+            return f"left of {self.pairs.found_of[path].name}"
+        if path in self.pairs.lefts_of:
+            return "found, left: " + ", ".join(p.name for p in self.pairs.lefts_of[path])
+        return ""
+
+    def action_verify(self) -> None:
+        """The selected as-left run against its as-found run (the Verify screen)."""
+        r = self.selected()
+        found = self.pairs.found_of.get(r.path) if r is not None else None
+        if r is None or found is None:
+            self.notify("select an as-left run (marked 'left of ...') to verify it", severity="warning")
+            return
+        from .verify import VerifyScreen
+
+        self.app.push_screen(VerifyScreen(found, r.path))
 
     def action_mark(self) -> None:
         """Mark or unmark the selected run; a third mark replaces the oldest."""
@@ -310,10 +338,13 @@ class RunsScreen(Screen):
         if r is not None and is_future(r.created):
             text += (f"\n[b]! dated in the future[/b] (created {literal(r.created)}): check the rig's clock; "
                      "left out of trends")
+        if r is not None and r.path in self.pairs.found_of:
+            text += f"; v verifies it against {literal(printable(self.pairs.found_of[r.path].name))}"
         self.query_one("#run-detail", Static).update(text)
 
     def on_data_table_row_highlighted(self, event: DataTable.RowHighlighted) -> None:
         self.show_detail()
+        self.refresh_bindings()  # v verifies only an as-left run
 
     def selected(self) -> RunSummary | None:
         try:
