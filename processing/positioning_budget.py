@@ -73,6 +73,8 @@ class BudgetSettings:
     @classmethod
     def from_dict(cls, d: dict[str, Any] | None) -> BudgetSettings:
         """Read ``[uncertainty]``; raises ValueError naming an unknown key or a bad value."""
+        if d is not None and not isinstance(d, dict):
+            raise ValueError(f"[uncertainty] must be a table, got {d!r}")
         d = dict(d or {})
         names = list(cls.__dataclass_fields__)
         extra = sorted(set(d) - set(names))
