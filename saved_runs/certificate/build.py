@@ -451,8 +451,7 @@ def budget_table(doc: TypstDoc, budget: dict[str, Any], unit: str) -> None:
     rows.append(("combined standard uncertainty u_c", *(_f(budget[q].u_c) for q in shown)))
     rows.append(("coverage factor k", *(f"{budget[q].k:g}" for q in shown)))
     rows.append(("expanded uncertainty U = k·u_c", *(_f(budget[q].U) for q in shown)))
-    doc.para(f"Uncertainty budget (standard uncertainties in {unit}; docs/positioning.md, \"Uncertainty of the "
-             "ISO 230-2 values\"):", bold=True)
+    doc.para(f"Uncertainty budget (ISO 230-2 Annex A / ISO/TR 230-9; standard uncertainties in {unit}):", bold=True)
     doc.table(("contribution", *shown), rows)
     notes = sorted({n for q in shown for n in budget[q].notes})
     if notes:
@@ -507,7 +506,9 @@ def conformity_section(doc: TypstDoc, evaluation: Any, rule: str, left_evaluatio
     if all(ev.verdict is None for _, ev in shown):
         doc.para("No specification was given (set-up [tolerance]): no statement of conformity is made.")
         return
-    doc.para(f"Decision rule: {rule} — {DECISION_RULE_NAMES[rule]}. U is the expanded uncertainty (k = 2) "
+    # positioning values: U = k·u_c with the run's --k (ISO 230-2's k); straightness: k = 2
+    k = getattr(evaluation.result, "k", 2.0) if hasattr(evaluation.result, "axis") else 2.0
+    doc.para(f"Decision rule: {rule} — {DECISION_RULE_NAMES[rule]}. U is the expanded uncertainty (k = {k:g}) "
              "of the value.")
     for label, ev in shown:
         v = ev.verdict
@@ -515,7 +516,7 @@ def conformity_section(doc: TypstDoc, evaluation: Any, rule: str, left_evaluatio
             doc.para(f"{label}: no specification.")
             continue
         doc.para(f"{label.capitalize()}: {OUTCOME_WORDS[v.result]} (verdict {v.result.upper()})", bold=True)
-        doc.table(("value", "specification", "measured", "U (k = 2)", "outcome"),
+        doc.table(("value", "specification", "measured", f"U (k = {k:g})", "outcome"),
                   [(c.quantity, f"≤ {c.tolerance:g} {UNIT.get(c.unit, c.unit)}",
                     f"{_f(c.value)} {UNIT.get(c.unit, c.unit)}" if c.value is not None else "not evaluated",
                     f"{_f(c.uncertainty)} {UNIT.get(c.unit, c.unit)}" if c.uncertainty is not None else "not known",
