@@ -95,3 +95,21 @@ def test_a_bad_uncertainty_table_is_refused_with_one_line(tmp_path: Path) -> Non
         positioning_setup_from_dict(d)
     d["uncertainty"] = {"laser_ppm": 0.3}
     assert positioning_setup_from_dict(d).to_run_setup()["uncertainty"] == {"laser_ppm": 0.3}
+
+
+def test_a_rotary_run_has_only_its_repeatability_in_arcsec(tmp_path: Path) -> None:
+    # two runs, 0° and 90°, deviations (arcsec) up 0°: 1, 2; 90°: 3, 4; down 0°: 0, 1; 90°: 5, 6
+    devs = {(1, 1, 0): 1, (2, 1, 0): 2, (1, 1, 90): 3, (2, 1, 90): 4,
+            (1, -1, 0): 0, (2, -1, 0): 1, (1, -1, 90): 5, (2, -1, 90): 6}
+    lines = ["run,direction,target_deg,reading_deg"]
+    lines += [f"{r},{d:+d},{t},{t + dev / 3600.0:.10f}" for (r, d, t), dev in devs.items()]
+    csv = tmp_path / "rot.csv"
+    csv.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    run = tmp_path / "run"
+    res = guideway("import", "positioning", csv, "--out", run, "--axis-type", "rotary", "--axis", "C")
+    assert res.returncode == 0, res.stderr
+    b = budget_of(run)
+    for q in ("E", "A", "B", "R"):
+        assert b[q]["unit"] == "arcsec" and b[q]["length_mm"] is None, q
+        assert set(b[q]["contributions"]) == {"repeatability of the value"}, q
+        assert b[q]["U"] == pytest.approx(2 * b[q]["contributions"]["repeatability of the value"]), q
