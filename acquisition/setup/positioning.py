@@ -11,6 +11,7 @@ from typing import Any
 from processing.air_index import DEFAULT_EQUATION
 from processing.environment import EnvironmentSettings
 from processing.iso230_2 import LONG_AXIS_MM
+from processing.positioning_budget import BudgetSettings
 from saved_runs import nc_text
 from saved_runs.errors import SetupError, UserError
 from saved_runs.evaluation.tolerance import positioning_tolerance
@@ -140,6 +141,8 @@ class PositioningSetup:
     operator: str = ""
     notes: str = ""
     tolerance: dict[str, float] = field(default_factory=dict)  # [tolerance], saved_runs.evaluation.tolerance
+    # [uncertainty]: the figures of the ISO 230-2 values' budget (processing.positioning_budget.BudgetSettings)
+    uncertainty: dict[str, float] = field(default_factory=dict)
     scenario: str = ""  # [simulation] scenario: the file --simulate takes its effects from ("" = none)
     # [[instrument]]: the calibrated instruments (saved_runs.store.instruments), run.json setup.instruments
     instruments: list[dict[str, str]] = field(default_factory=list)
@@ -224,6 +227,7 @@ class PositioningSetup:
             "environment": self.environment.to_dict(),
             "devices": asdict(self.devices),
             **({"tolerance": dict(self.tolerance)} if self.tolerance else {}),
+            **({"uncertainty": dict(self.uncertainty)} if self.uncertainty else {}),
             **({f"shift_targets_{u}": self.target_shift} if self.target_shift else {}),
             **({"instruments": [dict(i) for i in self.instruments]} if self.instruments else {}),
         }
@@ -344,6 +348,11 @@ def _positioning_setup(data: dict[str, Any], source: str, nc_checked: bool = Tru
     check_simulated_axis(simulation, f"{source}: [simulation]")
     tolerance = positioning_tolerance(top.table("tolerance").data, "arcsec" if axis_type == "rotary" else "um",
                                       source)
+    uncertainty = top.table("uncertainty").data or {}
+    try:
+        BudgetSettings.from_dict(uncertainty)
+    except ValueError as exc:
+        raise SetupError(f"{source}: {exc}") from None
     scenario = scenario_path(sim.get("scenario", str, ""), source)
     compensation = compensation_setup(top, source, u)
     instruments = instrument_tables(top.get("instrument", list, None), source, stored=not nc_checked)
@@ -354,6 +363,7 @@ def _positioning_setup(data: dict[str, Any], source: str, nc_checked: bool = Tru
         feed_per_min=feed, datum=datum, trigger=trigger, environment=environment, devices=devices,
         dialect=dialect, program_number=program_number,
         max_deviation=max_dev, simulation=simulation, long_axis=long_axis, tolerance=tolerance,
+        uncertainty={k: float(v) for k, v in uncertainty.items()},
         scenario=scenario, compensation=compensation, target_shift=shift, instruments=instruments, **text,
     )
     if explicit is not None:  # generated targets follow the rule by construction

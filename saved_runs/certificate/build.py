@@ -376,13 +376,21 @@ def results_section(doc: TypstDoc, run: LoadedRun, evaluation: Any) -> None:
 
         r = evaluation.result
         unit = UNIT[r.unit]
-        doc.para(f"ISO 230-2 values ({r.edition}) in {unit}, coverage factor k = {r.k:g} for the bands ± k·s "
-                 "that A and R contain.")
-        doc.table(("value", f"↑ ({unit})", f"↓ ({unit})", f"bidirectional ({unit})"),
-                  [(name, _f(r.axis.get(up)) if up else "", _f(r.axis.get(dn)) if dn else "", _f(r.axis.get(bi)))
-                   for name, up, dn, bi in POSITIONING_ROWS])
-        doc.para("Expanded measurement uncertainty U of these values: not evaluated by this version (no "
-                 "ISO/TR 230-9 uncertainty budget); decision rules that need U cannot decide them.")
+        budget = evaluation.budget or {}
+
+        def value_u(q: str | None) -> tuple[str, str]:
+            if q is None:
+                return "", ""
+            b = budget.get(q)
+            return _f(r.axis.get(q)), _f(b.U) if b is not None and b.U is not None else "not known"
+
+        doc.para(f"ISO 230-2 values ({r.edition}) in {unit}, each with its expanded uncertainty U = k·u_c, "
+                 f"k = {r.k:g} (ISO 230-2 Annex A / ISO/TR 230-9 budget below); k = {r.k:g} also for the bands "
+                 "± k·s that A and R contain.")
+        doc.table(("value", f"↑ ({unit})", f"U ↑ ({unit})", f"↓ ({unit})", f"U ↓ ({unit})",
+                   f"bidirectional ({unit})", f"U ({unit})"),
+                  [(name, *value_u(up), *value_u(dn), *value_u(bi)) for name, up, dn, bi in POSITIONING_ROWS])
+        budget_table(doc, budget, unit)
         doc.image("positioning.png", figure_png(positioning_figure(r, evaluation.deviations), dpi=110),
                   f"Every approach (blue ↑, red ↓), the mean per direction with its ± {r.k:g} s band; "
                   f"reversal value per target ({unit}).")
@@ -425,11 +433,37 @@ def gum_mc_agreement(result: Any) -> str:
             "digits).")
 
 
+BUDGET_COLUMNS = ("E", "M", "A", "B", "R")  # the bidirectional values; the one-direction ones are in run JSON
+
+
+def budget_table(doc: TypstDoc, budget: dict[str, Any], unit: str) -> None:
+    """The standard uncertainty contributions of the bidirectional ISO 230-2 values, u_c, U and k."""
+    shown = [q for q in BUDGET_COLUMNS if q in budget]
+    if not shown:
+        return
+    names: list[str] = []
+    for q in shown:
+        names += [n for n in budget[q].contributions if n not in names]
+    rows = [(n, *(_f(budget[q].contributions[n]) if n in budget[q].contributions else "cancels / n.a."
+                  for q in shown)) for n in names]
+    rows.append(("length L the scale terms act over (mm)",
+                 *(_f(budget[q].length_mm, 1) if budget[q].length_mm is not None else "—" for q in shown)))
+    rows.append(("combined standard uncertainty u_c", *(_f(budget[q].u_c) for q in shown)))
+    rows.append(("coverage factor k", *(f"{budget[q].k:g}" for q in shown)))
+    rows.append(("expanded uncertainty U = k·u_c", *(_f(budget[q].U) for q in shown)))
+    doc.para(f"Uncertainty budget (ISO 230-2 Annex A / ISO/TR 230-9; standard uncertainties in {unit}):", bold=True)
+    doc.table(("contribution", *shown), rows)
+    notes = sorted({n for q in shown for n in budget[q].notes})
+    if notes:
+        doc.para("Not included / assumed: " + "; ".join(notes) + ".", size="8pt")
+
+
 def _values(evaluation: Any) -> dict[str, tuple[float, float | None, str]]:
     """{name: (value, U or None, unit)} compared as found / as left."""
     if hasattr(evaluation.result, "axis"):
         r = evaluation.result
-        return {q: (v, None, UNIT[r.unit]) for q, v in r.axis.items() if q in
+        budget = evaluation.budget or {}
+        return {q: (v, budget[q].U if q in budget else None, UNIT[r.unit]) for q, v in r.axis.items() if q in
                 ("A", "A_up", "A_down", "E", "E_up", "E_down", "R", "R_up", "R_down", "M", "B")}
     r = evaluation.result
     mc_u = (r.uncertainty.to_dict() if r.uncertainty is not None else {}).get("straightness", {})
@@ -472,7 +506,9 @@ def conformity_section(doc: TypstDoc, evaluation: Any, rule: str, left_evaluatio
     if all(ev.verdict is None for _, ev in shown):
         doc.para("No specification was given (set-up [tolerance]): no statement of conformity is made.")
         return
-    doc.para(f"Decision rule: {rule} — {DECISION_RULE_NAMES[rule]}. U is the expanded uncertainty (k = 2) "
+    # positioning values: U = k·u_c with the run's --k (ISO 230-2's k); straightness: k = 2
+    k = getattr(evaluation.result, "k", 2.0) if hasattr(evaluation.result, "axis") else 2.0
+    doc.para(f"Decision rule: {rule} — {DECISION_RULE_NAMES[rule]}. U is the expanded uncertainty (k = {k:g}) "
              "of the value.")
     for label, ev in shown:
         v = ev.verdict
@@ -480,7 +516,7 @@ def conformity_section(doc: TypstDoc, evaluation: Any, rule: str, left_evaluatio
             doc.para(f"{label}: no specification.")
             continue
         doc.para(f"{label.capitalize()}: {OUTCOME_WORDS[v.result]} (verdict {v.result.upper()})", bold=True)
-        doc.table(("value", "specification", "measured", "U (k = 2)", "outcome"),
+        doc.table(("value", "specification", "measured", f"U (k = {k:g})", "outcome"),
                   [(c.quantity, f"≤ {c.tolerance:g} {UNIT.get(c.unit, c.unit)}",
                     f"{_f(c.value)} {UNIT.get(c.unit, c.unit)}" if c.value is not None else "not evaluated",
                     f"{_f(c.uncertainty)} {UNIT.get(c.unit, c.unit)}" if c.uncertainty is not None else "not known",

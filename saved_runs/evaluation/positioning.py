@@ -20,6 +20,7 @@ from processing.iso230_2 import (
     Iso2302Result,
     evaluate_iso230_2,
 )
+from processing.positioning_budget import BudgetSettings, ValueBudget, positioning_budget, span_of
 
 from ..errors import RunFormatError
 from ..store.compensation import compensation_text, run_compensation
@@ -41,6 +42,7 @@ class PositioningEvaluation:
     environment: CompensationInfo
     out_of_range: tuple[OutOfRange, ...] = ()  # accepted with --accept-out-of-range (.limits)
     verdict: Verdict | None = None  # against the set-up's [tolerance] (.tolerance)
+    budget: dict[str, ValueBudget] | None = None  # U of each ISO 230-2 value (processing.positioning_budget)
 
     def to_dict(self) -> dict[str, Any]:
         """The object ``guideway process --json`` prints for a positioning run."""
@@ -56,6 +58,7 @@ class PositioningEvaluation:
             "deviation": "x_ij = actual - target (after environmental compensation)",
             "controller_compensation": run_compensation(self.run.meta),
             **r,
+            "uncertainty": None if self.budget is None else {q: b.to_dict() for q, b in self.budget.items()},
             **verdict_dict(self.verdict),
             **out_of_range_dict(self.out_of_range),
         }
@@ -82,8 +85,11 @@ class PositioningEvaluation:
         print(compensation_text(run_compensation(self.run.meta)), file=stream)
         env = self.environment
         print(f"environment: {env.reason}" + (f" ({env.equation_name})" if env.equation_name else ""), file=stream)
+        budget = self.budget or {}
         for q in AXIS_QUANTITIES:
-            print(f"  {q:<7} {_fmt(r.axis[q]):>10} {r.unit:<6} {QUANTITY_NAMES[q][0]}", file=stream)
+            b = budget.get(q)
+            u = f"U {_fmt(b.U):>7} (k = {b.k:g})" if b is not None and b.U is not None else " " * 19
+            print(f"  {q:<7} {_fmt(r.axis[q]):>10} {r.unit:<6} {u}  {QUANTITY_NAMES[q][0]}", file=stream)
         vdi = ", ".join(f"{q} {_fmt(r.vdi3441[q])}" for q in VDI3441_QUANTITIES)
         print(f"VDI/DGQ 3441 ({r.unit}): {vdi}", file=stream)
         for note in r.notes:
@@ -151,8 +157,39 @@ def evaluate_positioning_run(run: LoadedRun, *, k: float = 2.0, edition: str = D
     except ValueError as exc:
         raise RunFormatError(f"{run.path}: {exc}") from None
     per_target = result.per_target
+    budget = value_budget(run, result, info)
     verdict = positioning_verdict(run.meta, f"{run.path}/run.json", result.axis, result.unit,
                                   ([int(n) for n in per_target["n_up"]], [int(n) for n in per_target["n_down"]]),
-                                  rule=decision_rule)
-    return PositioningEvaluation(run, result, deviations, info, accepted, verdict)
+                                  rule=decision_rule, uncertainty={q: b.U for q, b in budget.items()})
+    return PositioningEvaluation(run, result, deviations, info, accepted, verdict, budget)
+
+
+def _mean(points: pd.DataFrame, column: str, factor: float = 1.0) -> float:
+    """Mean of a points.csv column (NaN when absent or empty)."""
+    if column not in points:
+        return math.nan
+    v = points[column].to_numpy(dtype=float)
+    v = v[np.isfinite(v)]
+    return float(v.mean()) * factor if v.size else math.nan
+
+
+def value_budget(run: LoadedRun, result: Iso2302Result, info: CompensationInfo) -> dict[str, ValueBudget]:
+    """The uncertainty budget of each ISO 230-2 value of ``result`` (processing.positioning_budget): the
+    run's mean air and material conditions, its set-up's [environment] and [uncertainty], and the
+    repeatability of each value from the run's own approaches (value_uncertainty's Monte Carlo)."""
+    from .value_uncertainty import axis_value_spread
+
+    setup = run.meta.get("setup") or {}
+    try:
+        settings = BudgetSettings.from_dict(setup.get("uncertainty"))
+        env = EnvironmentSettings.from_dict(setup.get("environment"))
+    except ValueError as exc:
+        raise RunFormatError(f"{run.path}/run.json: {exc}") from None
+    pts = run.points
+    air = (_mean(pts, "air_temp_c"), _mean(pts, "air_pressure_hpa", 100.0), _mean(pts, "humidity_pct"))
+    return positioning_budget(
+        axis_type=result.axis_type, unit=result.unit, span_mm=span_of(result.per_target["target"].to_numpy(float)),
+        repeatability=axis_value_spread(result).u, settings=settings, k=result.k, air=air,
+        material_temp_c=_mean(pts, "material_temp_c"), expansion_ppm_per_k=env.expansion_ppm_per_k,
+        equation=env.index_equation, wavelength_nm=env.wavelength_nm, co2_ppm=env.co2_ppm)
 

@@ -21,8 +21,9 @@ A value is decided against its tolerance T (an upper limit) by one of the decisi
 * ``iso14253``: ISO 14253-1:2017: conforms when value + U <= T, does not conform when value - U > T,
   otherwise not decidable.
 
-U is the expanded uncertainty of the value (k = 2; straightness with Monte Carlo).  Where U is not
-known (positioning values: no ISO/TR 230-9 budget yet), the two rules that need it cannot decide:
+U is the expanded uncertainty of the value (k = 2; straightness with Monte Carlo; positioning values
+from the ISO 230-2 Annex A / ISO/TR 230-9 budget of processing.positioning_budget).  Where U is not
+known (a value whose repeatability cannot be estimated), the two rules that need it cannot decide:
 "not decidable".  Under ``simple``, a value within U of the limit is flagged (not proven in the sense of
 ISO 14253-1).  A value that could not be evaluated makes the verdict "not evaluated" unless another
 check fails.
@@ -220,18 +221,20 @@ def straightness_verdict(meta: dict[str, Any], where: str, straightness_um: dict
 
 def positioning_verdict(meta: dict[str, Any], where: str, axis: dict[str, float], unit: str,
                         approaches: tuple[list[int], list[int]] | None = None,
-                        rule: str = DEFAULT_DECISION_RULE) -> Verdict | None:
+                        rule: str = DEFAULT_DECISION_RULE,
+                        uncertainty: dict[str, float | None] | None = None) -> Verdict | None:
     """The verdict of a positioning run against run.json ``setup.tolerance`` (None without one);
     ``approaches``: the approaches at each target up and down, to say in plain words why a value
-    could not be evaluated (A and R need a standard deviation, so 2 or more approaches, ISO 230-2).  The
-    ISO 230-2 values carry no U here (no ISO/TR 230-9 budget), so guard-band and iso14253 cannot decide."""
+    could not be evaluated (A and R need a standard deviation, so 2 or more approaches, ISO 230-2);
+    ``uncertainty``: U of each value (processing.positioning_budget; a value without one cannot be
+    decided under guard-band and iso14253)."""
     tol = _stored(meta, where, positioning_tolerance, unit)
     if not tol:
         return None
     checks = []
     for key, value in tol.items():
         q = key[: -len(unit) - 1]  # A_um -> A
-        checks.append(check(q, axis.get(q, math.nan), value, unit, None, rule))
+        checks.append(check(q, axis.get(q, math.nan), value, unit, (uncertainty or {}).get(q), rule))
     missing = ""
     if approaches is not None and any(c.value is None for c in checks):
         up, down = approaches

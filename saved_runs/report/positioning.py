@@ -68,11 +68,37 @@ def positioning_sections(page: HtmlPage, evaluation: PositioningEvaluation) -> N
 def iso_table(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
     r = evaluation.result
     page.heading(f"{r.edition} results (k = {r.k:g})", 3)
-    rows = [(q, r.axis[q], UNIT_TEXT[r.unit], *QUANTITY_NAMES[q]) for q in AXIS_QUANTITIES]
-    page.table(("symbol", "value", "unit", "ISO 230-2 name", "GB/T 17421.2 name"), rows, digits=3,
-               text_columns=(0, 2, 3, 4))
+    budget = evaluation.budget or {}
+
+    def big_u(q: str) -> float | None:
+        b = budget.get(q)
+        return None if b is None else b.U
+
+    rows = [(q, r.axis[q], big_u(q), UNIT_TEXT[r.unit], *QUANTITY_NAMES[q]) for q in AXIS_QUANTITIES]
+    page.table(("symbol", "value", f"U (k = {r.k:g})", "unit", "ISO 230-2 name", "GB/T 17421.2 name"), rows,
+               digits=3, text_columns=(0, 3, 4, 5))
     page.paragraph("— = not evaluable from this data (see the notes). GB/T names as commonly quoted; check "
                    "the clause wording against the standard before quoting it in a contract.", "note")
+    budget_section(page, evaluation)
+
+
+def budget_section(page: HtmlPage, evaluation: PositioningEvaluation) -> None:
+    """The standard uncertainty contributions of E, M, A, B and R (ISO 230-2 Annex A / ISO/TR 230-9)."""
+    budget = evaluation.budget or {}
+    shown = [q for q in ("E", "M", "A", "B", "R") if q in budget]
+    if not shown:
+        return
+    unit = UNIT_TEXT[evaluation.result.unit]
+    page.heading(f"Uncertainty budget (standard uncertainties, {unit})", 3)
+    names: list[str] = []
+    for q in shown:
+        names += [n for n in budget[q].contributions if n not in names]
+    rows: list[tuple[object, ...]] = [(n, *(budget[q].contributions.get(n) for q in shown)) for n in names]
+    rows += [("combined u_c", *(budget[q].u_c for q in shown)),
+             ("expanded U = k·u_c", *(budget[q].U for q in shown))]
+    page.table(("contribution", *shown), rows, digits=3)
+    notes = sorted({n for q in shown for n in budget[q].notes})
+    page.paragraph("— = cancels in this value or does not apply. " + "; ".join(notes), "note")
 
 
 def vdi_table(page: HtmlPage, evaluation: PositioningEvaluation) -> None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import re
 import shutil
 from pathlib import Path
@@ -134,27 +135,39 @@ def test_every_field_of_a_positioning_certificate_with_as_left(tmp_path: Path, f
     pts = np.genfromtxt(found / "points.csv", delimiter=",", names=True)
     t = pts["air_temp_c"]
     assert f"air temperature (°C) {t.min():.3f} {t.mean():.3f} {t.max():.3f}" in doc
-    # ISO 230-2 values per direction with k
+    # ISO 230-2 values per direction, each with its U (k = 2; the budget itself: test_positioning_uncertainty.py)
     iso = iso_by_hand()
+    big_u = {q: b["U"] for q, b in json.loads(guideway("process", found, "--json", "--no-write").stdout)
+             ["uncertainty"].items()}
+    left_u = {q: b["U"] for q, b in json.loads(guideway("process", left, "--json", "--no-write").stdout)
+              ["uncertainty"].items()}
     rows = (("A (accuracy)", "A_up", "A_down", "A"), ("E (systematic deviation)", "E_up", "E_down", "E"),
             ("R (repeatability)", "R_up", "R_down", "R"))
     for row, up, dn, bi in rows:
-        assert f"{row} {iso[up]:.3f} {iso[dn]:.3f} {iso[bi]:.3f}" in doc, row
-    assert f"M (mean deviation) {iso['M']:.3f}" in doc and f"B (reversal value) {iso['B']:.3f}" in doc
-    assert "k = 2" in doc and "U of these values: not evaluated" in doc
-    # as found / as left: delta and reduction per value; the compensation table of each run
+        assert (f"{row} {iso[up]:.3f} {big_u[up]:.3f} {iso[dn]:.3f} {big_u[dn]:.3f} {iso[bi]:.3f} "
+                f"{big_u[bi]:.3f}") in doc, row
+    assert f"M (mean deviation) {iso['M']:.3f} {big_u['M']:.3f}" in doc
+    assert f"B (reversal value) {iso['B']:.3f} {big_u['B']:.3f}" in doc
+    assert "k = 2" in doc and "U of these values: not evaluated" not in doc
+    # the budget table, columns E M A B R: the laser's 0.5 ppm of the 400 mm span; it cancels in B and R
+    assert "contribution E M A B R" in doc
+    assert "laser calibration 0.200 0.200 0.200 cancels / n.a. cancels / n.a." in doc
+    assert f"expanded uncertainty U = k·u_c {big_u['E']:.3f} {big_u['M']:.3f} {big_u['A']:.3f}" in doc
+    assert "E_VE: not included" in doc
+    # as found / as left: delta, its U = √(U_found² + U_left²) and the reduction per value; the tables
     left_iso = iso_by_hand(LEFT_FACTOR)
     delta = left_iso["E"] - iso["E"]
     reduction = (iso["E"] - left_iso["E"]) / iso["E"] * 100
-    assert f"E µm {iso['E']:.3f} {left_iso['E']:.3f} {delta:.3f} not known {reduction:.1f} %" in doc
+    u_delta = math.hypot(big_u["E"], left_u["E"])
+    assert f"E µm {iso['E']:.3f} {left_iso['E']:.3f} {delta:.3f} {u_delta:.3f} {reduction:.1f} %" in doc
     assert f"xcomp.comp (linuxcnc), SHA-256 {TABLE_SHA}" in doc
     assert "As found: compensation table active none" in doc
     # statement of conformity: the rule by name and the outcome per value (A fails by 0.5 µm, E passes)
     assert "Decision rule: simple — ILAC-G8" in doc
     assert "As found: does not conform (verdict FAIL)" in doc and "As left: conforms (verdict PASS)" in doc
-    assert f"A ≤ {found_tol['A_um']:g} µm {iso['A']:.3f} µm not known does not conform" in doc
-    assert f"E ≤ 10 µm {iso['E']:.3f} µm not known conforms" in doc
-    assert f"A ≤ {found_tol['A_um']:g} µm {left_iso['A']:.3f} µm not known conforms" in doc  # as left
+    assert f"A ≤ {found_tol['A_um']:g} µm {iso['A']:.3f} µm {big_u['A']:.3f} µm does not conform" in doc
+    assert f"E ≤ 10 µm {iso['E']:.3f} µm {big_u['E']:.3f} µm conforms" in doc
+    assert f"A ≤ {found_tol['A_um']:g} µm {left_iso['A']:.3f} µm {left_u['A']:.3f} µm conforms" in doc  # as left
     # the data it was made from
     sha = hashlib.sha256((found / "run.json").read_bytes() + (found / "points.csv").read_bytes()).hexdigest()
     assert sha in doc.replace(" ", "") or sha in doc

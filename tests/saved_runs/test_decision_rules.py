@@ -90,20 +90,35 @@ def test_cli_report_and_certificate_never_disagree(tmp_path: Path, where: str) -
         assert f"{v:.3f} µm {u:.3f} µm {WORDS[expected]}" in doc and f"Decision rule: {rule} —" in doc
 
 
-def test_positioning_values_without_u_under_every_rule(tmp_path: Path) -> None:
-    """ISO 230-2 values carry no U: simple decides them, guard-band and iso14253 cannot (all three front ends)."""
+# the same four limits for the ISO 230-2 value A of a positioning run, its U from the ISO 230-2 Annex A budget
+@pytest.mark.parametrize("where", ["v+U+e", "v+U-e", "v-e", "v-U-e"])
+def test_positioning_values_with_their_u_under_every_rule(tmp_path: Path, where: str) -> None:
+    """ISO 230-2 values carry U (processing.positioning_budget): guard-band and iso14253 decide them, and the
+    CLI verdict, the HTML report and the certificate agree on every outcome."""
     from tests.saved_runs.test_certificate import iso_by_hand, positioning
 
     a = iso_by_hand()["A"]
-    run = positioning(tmp_path, "run", tolerance={"A_um": round(a + 0.001, 6)})
+    probe = positioning(tmp_path, "probe", tolerance={"A_um": 100.0})
+    u = json.loads(guideway("process", probe, "--json", "--no-write").stdout)["uncertainty"]["A"]["U"]
+    assert 0.5 < u < 2.0  # 2·√(0.2² + 0.46² + ...) µm over L = 400 mm (test_positioning_budget_of_a_run)
+    eps = 0.002
+    limit = round({"v+U+e": a + u + eps, "v+U-e": a + u - eps, "v-e": a - eps, "v-U-e": a - u - eps}[where], 6)
+    run = positioning(tmp_path, "run", tolerance={"A_um": limit})
+    outcomes = set()
     for rule in DECISION_RULES:
-        expected = by_definition(a, round(a + 0.001, 6), None, rule)
+        expected = by_definition(a, limit, u, rule)
+        outcomes.add(expected)
         res = guideway("process", run, "--json", "--no-write", "--decision-rule", rule)
-        assert json.loads(res.stdout)["verdict"]["result"] == expected
+        verdict = json.loads(res.stdout)["verdict"]
+        assert (verdict["result"], verdict["checks"][0]["uncertainty"]) == (expected, pytest.approx(u)), rule
+        text = guideway("process", run, "--no-write", "--decision-rule", rule).stdout
+        assert f"verdict: {expected.upper()} (" in text and f"U {u:.3f} um" in text
         html = build_report(run, out=tmp_path / "r.html", decision_rule=rule).read_text(encoding="utf-8")
-        assert f"Verdict: {expected.upper()}<" in html
+        assert f"Verdict: {expected.upper()}<" in html and f"<td>{u:.3f}</td>" in html
         pdf = tmp_path / "c.pdf"
         assert guideway("certificate", run, "--out", pdf, "--decision-rule", rule).returncode == 0
         doc = " ".join(" ".join(p.extract_text().split()) for p in pypdf.PdfReader(pdf).pages)
         assert f"Outcome: {WORDS[expected]} (verdict {expected.upper()})" in doc
-    assert by_definition(a, a + 0.001, None, "iso14253") == "not decidable"
+        assert f"{a:.3f} µm {u:.3f} µm {WORDS[expected]}" in doc, rule
+    assert outcomes == {"v+U+e": {"pass"}, "v+U-e": {"pass", "fail", "not decidable"},
+                        "v-e": {"fail", "not decidable"}, "v-U-e": {"fail"}}[where]
