@@ -11,7 +11,7 @@ Headline values (``values``), each ``{"value_um": v, "u_um": u}`` with ``u`` the
   line; u = the Monte Carlo expanded uncertainty U divided by its k);
 * positioning: the ISO 230-2 values ``A``, ``A_up``, ``A_down``, ``E``, ``E_up``, ``E_down``, ``M``, ``R``,
   ``R_up``, ``R_down``, ``B`` (a magnitude, the largest |B_i|) and ``B_mean`` (the signed mean reversal, for
-  a trend that sees its sign change); their uncertainty is not evaluated: u None.
+  a trend that sees its sign change); u = u_c of the value's ISO 230-2 Annex A budget (summary ``uncertainty``).
 
 The verdict is the evaluation's, however the run was evaluated; the evaluation options of the values
 (``options``: ``method``, ``mc_trials`` of a straightness run, ``k``, ``edition`` of a positioning run,
@@ -197,11 +197,13 @@ def headline_values(summary: dict[str, Any], meta: dict[str, Any]) -> dict[str, 
     elif summary.get("kind") == "positioning":
         unit = "arcsec" if summary.get("unit") == "arcsec" else "um"
         iso = summary.get("iso230_2") or {}
+        budget = summary.get("uncertainty") or {}  # the ISO 230-2 Annex A budget per value (u_c: standard)
         for q in (*POSITIONING_QUANTITIES, *SIGNED_QUANTITIES):
             value = _number(iso.get(q))
             if value is None:
                 continue
-            entry = {f"value_{unit}": value, f"u_{unit}": None}
+            u_c = _number((budget.get(q) or {}).get("u_c")) if isinstance(budget.get(q), dict) else None
+            entry = {f"value_{unit}": value, f"u_{unit}": u_c}
             limit = _number(tolerance.get(f"{q}_{unit}"))
             if limit is not None:
                 entry[f"limit_{unit}"] = limit

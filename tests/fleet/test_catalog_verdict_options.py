@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.cli import guideway
+from tests.cli import ROOT, guideway
 from tests.setups import replace_once, straightness_setup_text
 
 
@@ -107,3 +107,19 @@ def test_positioning_options(tmp_path: Path) -> None:
     e = entry(url)
     assert e["non_default_options"] == {"k": 3.0, "edition": "ISO 230-2:1997"}
     assert e["option_defaults"] == {"k": 2.0, "edition": "ISO 230-2:2014", "accept_out_of_range": False}
+
+
+def test_a_positioning_value_is_catalogued_with_its_standard_uncertainty(tmp_path: Path) -> None:
+    """u of a positioning value = U / k of its ISO 230-2 Annex A budget as the run's evaluation states it
+    (the budget's own figures are tested in tests/processing/test_positioning_budget.py); the trend then
+    weighs the runs with it.  Before, every positioning value was catalogued with u null."""
+    run = tmp_path / "runs" / "p"
+    assert guideway("simulate", ROOT / "docs" / "scenario-positioning.toml", "--out", run).returncode == 0
+    assert guideway("process", run).returncode == 0
+    summary = json.loads(guideway("process", run, "--json", "--no-write").stdout)
+    url = f"sqlite:///{tmp_path / 'c.sqlite'}"
+    assert guideway("catalog", "add", run, "--catalog", url).returncode == 0
+    values = entry(url)["values"]
+    for q in ("E", "M", "A", "B", "R"):
+        budget = summary["uncertainty"][q]
+        assert values[q]["u_um"] == pytest.approx(budget["U"] / budget["k"], rel=1e-9), q
