@@ -12,8 +12,7 @@ import signal
 import struct
 import subprocess
 import sys
-import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +22,7 @@ from scipy.interpolate import CubicSpline
 
 from acquisition.live_compensation import LiveCompensator, LiveLinkLost, predictor_from_means, start_in_thread
 from mocks.live_controller import LiveOffsetController, start_live_controller
+from tests.waiting import wait_for
 
 ROOT = Path(__file__).resolve().parents[2]
 X = np.array([0.0, 40.0, 90.0, 130.0, 200.0, 260.0, 300.0, 360.0])
@@ -155,8 +155,7 @@ def test_lost_connection_ends_the_loop_and_the_controller_drops_the_offset(contr
     assert isinstance(out["error"], LiveLinkLost)
     assert "lost" in str(out["error"]) and "heartbeat timeout (300 ms)" in str(out["error"])
     # the controller side: the offset is still applied until T has passed without a heartbeat, then 0
-    time.sleep(0.35)
-    assert ctl.applied() == 0.0 and ctl.stale
+    wait_for(lambda: ctl.applied() == 0.0 and ctl.stale, timeout_s=10, what="the controller dropping the offset")
 
 
 SERVER = """
@@ -196,14 +195,6 @@ def _compensate(run: Path, port: int) -> subprocess.Popen:
     return proc
 
 
-def _until(check: Callable[[], bool], timeout_s: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if check():
-            return True
-        time.sleep(0.05)
-    return False
-
 
 def _end(*procs: subprocess.Popen) -> None:
     for p in procs:
@@ -224,7 +215,7 @@ def test_cli_exits_3_with_one_line_when_the_server_dies(as_found: Path) -> None:
     server, port = _server()
     comp = _compensate(as_found, port)
     try:
-        assert _until(lambda: _registers(port)[9] > 10)  # it is cycling: the heartbeat moved
+        wait_for(lambda: _registers(port)[9] > 10, timeout_s=10, what="the heartbeat")  # it is cycling
         server.kill()  # the controller dies mid-run
         server.communicate(timeout=5)
         _, err = comp.communicate(timeout=15)
@@ -240,7 +231,8 @@ def test_cli_ctrl_c_writes_offset_zero_before_exit(as_found: Path) -> None:
     server, port = _server()
     comp = _compensate(as_found, port)
     try:
-        assert _until(lambda: _registers(port)[8] == 1 and _registers(port)[12:14] != [0, 0])  # a non-zero offset
+        wait_for(lambda: _registers(port)[8] == 1 and _registers(port)[12:14] != [0, 0], timeout_s=10,
+                 what="a non-zero offset")
         os.kill(comp.pid, signal.SIGINT)
         _, err = comp.communicate(timeout=15)
         after = _registers(port)

@@ -19,6 +19,13 @@ from pymodbus.client import ModbusTcpClient
 
 from acquisition.live_compensation import LiveCompensator, predictor_from_means, start_in_thread
 from drivers.live_compensation.linuxcnc_component import parser, run_component
+from tests.waiting import wait_for
+
+
+def settled(condition: Any) -> None:
+    """Wait (bounded) until the component's pins meet ``condition``: it serves the registers in a thread."""
+    wait_for(condition, timeout_s=10, interval_s=0.002, what="the component's pins")
+
 
 X = np.array([0.0, 90.0, 180.0, 270.0, 360.0])
 UP = np.array([0.0, 10.0, 0.0, -10.0, 0.0])
@@ -63,14 +70,6 @@ def component() -> Iterator[tuple[FakeComponent, int]]:
     thread.join(5)
 
 
-def wait_for(check: Any, timeout: float = 3.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if check():
-            return True
-        time.sleep(0.002)
-    return False
-
 
 def test_compensator_drives_eoffset_counts(component) -> None:  # noqa: ANN001
     comp, port = component
@@ -81,18 +80,18 @@ def test_compensator_drives_eoffset_counts(component) -> None:  # noqa: ANN001
     thread, _ = start_in_thread(live)
     try:
         comp["pos-cmd"] = 45.0  # moving +: the up curve, 5 arcsec -> offset -5 arcsec = -500 counts
-        assert wait_for(lambda: comp["eoffset-counts"] == round(-np.interp(45.0, X, UP) / 0.01)), comp.pins
+        settled(lambda: comp["eoffset-counts"] == round(-np.interp(45.0, X, UP) / 0.01))
         assert comp["active"]
         comp["pos-cmd"] = 30.0  # moving -: the down curve
-        assert wait_for(lambda: comp["eoffset-counts"] == round(-np.interp(30.0, X, DOWN) / 0.01)), comp.pins
+        settled(lambda: comp["eoffset-counts"] == round(-np.interp(30.0, X, DOWN) / 0.01))
         comp["homed"] = False  # not homed: no offset
-        assert wait_for(lambda: comp["eoffset-counts"] == 0)
+        settled(lambda: comp["eoffset-counts"] == 0)
         comp["homed"] = True
-        assert wait_for(lambda: comp["eoffset-counts"] != 0)
+        settled(lambda: comp["eoffset-counts"] != 0)
     finally:
         live.stop()
         thread.join(5)
-    assert wait_for(lambda: comp["eoffset-counts"] == 0)  # the compensator wrote 0 and enable 0 leaving
+    settled(lambda: comp["eoffset-counts"] == 0)  # the compensator wrote 0 and enable 0 leaving
 
 
 def test_stale_heartbeat_drops_the_offset_and_latches(component) -> None:  # noqa: ANN001
@@ -103,9 +102,9 @@ def test_stale_heartbeat_drops_the_offset_and_latches(component) -> None:  # noq
     offset = list(struct.unpack(">HH", struct.pack(">f", 2.5)))
     client.write_register(8, 1, device_id=1)
     client.write_registers(9, [1, 0, 250, *offset], device_id=1)
-    assert wait_for(lambda: comp["eoffset-counts"] == 250)
+    settled(lambda: comp["eoffset-counts"] == 250)
     t0 = time.monotonic()
-    assert wait_for(lambda: comp["eoffset-counts"] == 0 and not comp["active"])  # T = 300 ms without a heartbeat
+    settled(lambda: comp["eoffset-counts"] == 0 and not comp["active"])  # T = 300 ms without a heartbeat
     assert time.monotonic() - t0 > 0.2  # not before T (the last heartbeat was just before t0)
     regs = client.read_holding_registers(0, count=17, device_id=1).registers
     assert regs[1] & 2 and regs[16] == 300
@@ -113,6 +112,6 @@ def test_stale_heartbeat_drops_the_offset_and_latches(component) -> None:  # noq
     time.sleep(0.05)
     assert comp["eoffset-counts"] == 0  # latched: a heartbeat alone does not resume
     client.write_register(8, 1, device_id=1)
-    assert wait_for(lambda: comp["eoffset-counts"] == 250)
+    settled(lambda: comp["eoffset-counts"] == 250)
     assert client.write_register(4, 1, device_id=1).isError()  # the position is the controller's
     client.close()
