@@ -14,7 +14,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from saved_runs.catalog.folder import files_stamp
+from saved_runs.errors import RunFormatError
 from saved_runs.export.provenance import find_export, read_exports
+from saved_runs.store.files import read_run_file
 
 
 @dataclass(frozen=True)
@@ -29,9 +32,9 @@ class RunLink:
 
 
 def _meta(run_dir: Path) -> dict[str, Any]:
-    try:
-        meta = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+    try:  # read_run_file: a FIFO or device planted at run.json is not read (it would wait forever)
+        meta = json.loads(read_run_file(run_dir / "run.json").decode("utf-8"))
+    except (OSError, RunFormatError, UnicodeDecodeError, json.JSONDecodeError):
         return {}
     return meta if isinstance(meta, dict) else {}
 
@@ -48,20 +51,9 @@ def table_sha256(meta: dict[str, Any]) -> str | None:
 _CACHE: dict[Path, tuple[tuple[int, ...], RunLink]] = {}
 
 
-def _stamp(run_dir: Path) -> tuple[int, ...]:
-    out: list[int] = []
-    for name in ("run.json", "results/exports.json"):
-        try:
-            st = (run_dir / name).stat()
-            out += [st.st_mtime_ns, st.st_size]
-        except OSError:
-            out += [0, -1]
-    return tuple(out)
-
-
 def run_link(run_dir: Path) -> RunLink:
     """:class:`RunLink` of ``run_dir`` (kept while its run.json and exports.json stay the same)."""
-    stamp = _stamp(run_dir)
+    stamp = files_stamp(run_dir, ("run.json", "results/exports.json"))
     cached = _CACHE.get(run_dir)
     if cached is not None and cached[0] == stamp:
         return cached[1]

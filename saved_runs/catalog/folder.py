@@ -96,23 +96,25 @@ def points_on_disk(path: Path) -> tuple[int, str]:
     return n, ""
 
 
-_CACHE: dict[Path, tuple[tuple[int, int, int, int], RunSummary]] = {}
+_CACHE: dict[Path, tuple[tuple[int, ...], RunSummary]] = {}
 
 
-def _stamp(run_dir: Path) -> tuple[int, int, int, int]:
-    out = []
-    for name in ("run.json", "points.csv"):
+def files_stamp(run_dir: Path, names: tuple[str, ...] = ("run.json", "points.csv")) -> tuple[int, ...]:
+    """Modification time (ns) and size of each of ``names`` in ``run_dir`` ((0, -1) for one that is missing):
+    a cached reading of those files is still good while the stamp is the same."""
+    out: list[int] = []
+    for name in names:
         try:
             st = (run_dir / name).stat()
             out += [st.st_mtime_ns, st.st_size]
         except OSError:
             out += [0, -1]
-    return tuple(out)  # type: ignore[return-value]
+    return tuple(out)
 
 
 def run_summary(run_dir: Path) -> RunSummary:
     """Summary of ``run_dir`` (never raises for a bad file: ``problem`` says why)."""
-    stamp = _stamp(run_dir)
+    stamp = files_stamp(run_dir)
     cached = _CACHE.get(run_dir)
     if cached is not None and cached[0] == stamp:
         return cached[1]

@@ -17,8 +17,8 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from ..errors import FileWriteError
-from ..store.files import write_json_atomic
+from ..errors import FileWriteError, RunFormatError
+from ..store.files import read_run_file, write_json_atomic
 
 EXPORTS_FILE = "exports.json"
 
@@ -52,9 +52,9 @@ def export_record(run_meta: dict[str, Any], path: Path, export: Any, options: An
 def read_exports(run_dir: Path) -> list[dict[str, Any]]:
     """The records of ``run_dir``'s results/exports.json ([] when there is none or it cannot be read: the
     record is a help for verify, never a reason to refuse an export)."""
-    try:
-        data = json.loads((run_dir / "results" / EXPORTS_FILE).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+    try:  # read_run_file: a FIFO or device planted there is not read (it would wait forever)
+        data = json.loads(read_run_file(run_dir / "results" / EXPORTS_FILE).decode("utf-8"))
+    except (OSError, RunFormatError, UnicodeDecodeError, json.JSONDecodeError):
         return []
     rows = data.get("exports") if isinstance(data, dict) else None
     return [r for r in rows if isinstance(r, dict)] if isinstance(rows, list) else []

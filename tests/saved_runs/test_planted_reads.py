@@ -84,3 +84,36 @@ def test_a_device_is_refused_and_a_link_to_a_regular_file_is_read(tmp_path: Path
     assert load_run(run).meta == json.loads(real.read_text())  # followed: reading through a link is harmless
     with pytest.raises(Exception, match="is a device, not a regular file"):
         read_run_file("/dev/zero")  # would be read without end
+
+
+def _within_timeout(work):  # noqa: ANN001, ANN202
+    """``work()`` in a daemon thread, failing the test (instead of hanging the suite) if it does not return."""
+    import threading
+
+    found: list = []
+    t = threading.Thread(target=lambda: found.append(work()), daemon=True)
+    t.start()
+    t.join(TIMEOUT_S)
+    assert found, "hung on a FIFO"
+    return found[0]
+
+
+@pytest.mark.parametrize("name", ["run.json", "results/exports.json"])
+def test_the_found_left_pairs_of_the_runs_browser_do_not_wait_on_a_fifo(tmp_path: Path, name: str) -> None:
+    """The runs browser pairs as-found and as-left runs from run.json and results/exports.json: a FIFO at either
+    is not read (that run simply pairs with nothing)."""
+    from fleet.verify.pairs import found_left_pairs
+
+    run = planted(tmp_path, name)
+    pairs = _within_timeout(lambda: found_left_pairs([run]))
+    assert pairs.found_of == {} and pairs.lefts_of == {}
+
+
+def test_export_does_not_wait_on_a_fifo_at_exports_json(tmp_path: Path) -> None:
+    """``export`` adds its record to results/exports.json: a FIFO there is not read; the table is written, the
+    record is refused with a note (the atomic writer never writes through it) and the FIFO stays."""
+    run = planted(tmp_path, "results/exports.json")
+    res = cli("export", run, "--format", "linuxcnc", tmp=tmp_path / "tmp")
+    assert "Traceback" not in res.stderr
+    assert (run / "results" / "compensation-linuxcnc.comp").is_file(), res.stderr
+    assert (run / "results" / "exports.json").is_fifo()
