@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from drivers.errors import ProtocolError
+from drivers.errors import DeviceError, ProtocolError
 from drivers.keyence_lkg import KeyenceLKG
 from drivers.keyence_lkg import protocol as p
 from drivers.readings import MeasurementStatus
@@ -111,3 +111,59 @@ def test_head_mode_outside_0_to_99_refused(function: int) -> None:
 def test_head_mode_bounds_accepted() -> None:
     assert p.encode_write_head_mode(2, 0) == b"SW,HB,02,0\r"
     assert p.encode_write_head_mode(1, 99) == b"SW,HB,01,99\r"
+
+
+# Refusals name the problem (issue 28): the key words of each message are part of the contract --------
+@pytest.mark.parametrize(
+    ("call", "words"),
+    [(lambda: p.encode("M1\r"), "not a valid LK-G command"), (lambda: p.encode("M\u00b51"), "not a valid LK-G command"),
+     (lambda: p.encode_measure(3), r"must be 0 \(both\), 1 or 2, not 3"),
+     (lambda: p.encode_reset(-1), r"reset output must be 0 \(both\), 1 or 2, not -1")],
+)
+def test_refused_requests_say_why(call, words: str) -> None:  # noqa: ANN001
+    with pytest.raises(ValueError, match=words):
+        call()
+
+
+@pytest.mark.parametrize(
+    ("field", "words"),
+    [("+1.2345", "must be 8 characters"), ("+01.23456", "must be 8 characters"),
+     ("+0A.2345", "malformed LK-G value field"), ("+01.23.4", "malformed LK-G value field"),
+     ("+.......", "malformed LK-G value field"), ("01.23456", "malformed LK-G value field")],
+)
+def test_bad_value_fields_say_why(field: str, words: str) -> None:
+    with pytest.raises(ProtocolError, match=words):
+        p.parse_value(field)
+
+
+@pytest.mark.parametrize(
+    ("frame", "decode", "words"),
+    [(b"M1,+01.2345", lambda f: p.decode_measure(f, 1), "not terminated by CR"),
+     (b"M1,+01.2\xff45\r", lambda f: p.decode_measure(f, 1), "non-ASCII"),
+     # one CR inside the frame (no LF) and one LF inside (no CR) are each a stray line break
+     (b"M1,+01.2345\r\r", lambda f: p.decode_measure(f, 1), "stray line break"),
+     (b"Q0\r\r", lambda f: p.decode_ack(f, "Q0"), "stray line break"),
+     (b"M1,+01.2345\n\r", lambda f: p.decode_measure(f, 1), "stray line break"),
+     (b"R0\n\r", lambda f: p.decode_ack(f, "R0"), "stray line break"),
+     (b"ER,M1\r", lambda f: p.decode_measure(f, 1), "malformed LK-G error reply"),
+     (b"ER,M2,00\r", lambda f: p.decode_measure(f, 1), "malformed LK-G error reply"),
+     (b"M2,+01.2345\r", lambda f: p.decode_measure(f, 1), "does not answer 'M1'"),
+     (b"M1\r", lambda f: p.decode_measure(f, 1), r"M1 reply needs 1 value"),
+     (b"M0,+01.2345\r", lambda f: p.decode_measure(f, 0), r"M0 reply needs 2 value"),
+     (b"MS,01\r", lambda f: p.decode_measure_ms(f, 1), "MS reply needs one value"),
+     (b"SW,OF,01\r", lambda f: p.decode_ack(f, "SW,OF"), "'SW,OF' has unexpected fields"),
+     (b"SR,OF,01\r", lambda f: p.decode_read_offset(f, 1), "SR,OF reply needs one value"),
+     (b"SR,OF,01,--------\r", lambda f: p.decode_read_offset(f, 1), "offset is not a number"),
+     (b"SR,HB,01,+5\r", lambda f: p.decode_read_head_mode(f, 1), "needs one function number")],
+)
+def test_bad_replies_say_why(frame: bytes, decode, words: str) -> None:  # noqa: ANN001
+    with pytest.raises(ProtocolError, match=words):
+        decode(frame)
+
+
+def test_error_code_outside_the_manual_list_is_reported_as_unknown() -> None:
+    """The manual lists 00/01/20/21/22/88/99; another two-digit code is still the device's error."""
+    with pytest.raises(DeviceError) as info:
+        p.decode_measure(b"ER,M1,42\r", 1)
+    assert (info.value.code, info.value.text, info.value.command) == ("42", "unknown error code", "M1")
+    assert "error 42" in str(info.value)
