@@ -20,6 +20,7 @@ Data blocks: a measured value is a sign plus 7 digits in 0.0001 mm
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from functools import reduce
@@ -95,6 +96,8 @@ def format_setting(value: int) -> str:
 
 def format_measured(value_mm: float) -> str:
     """Measured-value data: sign plus 7 digits in 0.0001 mm (``+0055000`` = 5.5 mm)."""
+    if not math.isfinite(value_mm):  # round() would raise a bare OverflowError (inf) or a cryptic ValueError (nan)
+        raise ValueError(f"HL-G1 value {value_mm} mm is not a finite number: give a value within +-950 mm")
     counts = round(value_mm / MM_PER_COUNT)
     if abs(counts) > MEASURED_LIMIT:
         raise ValueError(f"HL-G1 value {value_mm} mm is outside +-950 mm")
