@@ -129,6 +129,7 @@ BCC_41 = b"%01$RMD-012345641\r"  # protocols.md: "same, with real BCC"
         (b"%01$RMD-01234\x0156**\r", ProtocolError, "control characters in HL-G1 reply"),
         (b"%01$RMD-0123456**\r", ProtocolError, "has no BCC although the request had one"),
         (b"%01$RMD-01234564G\r", ProtocolError, "reply BCC b'4G' is not two hex digits"),
+        (b"%01$RMD-0123456\xfe\xff\r", ProtocolError, "reply BCC b'\\xfe\\xff' is not two hex digits"),
         (b"%01$RMD-012345642\r", ChecksumError, "reply BCC 42 != computed 41"),
         (framed("%02$RMD-0123456"), ProtocolError, "reply from station '02', expected 01"),
         (framed("%01!4X"), ProtocolError, "malformed HL-G1 error reply"),
