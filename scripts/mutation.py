@@ -87,6 +87,9 @@ def configure(dest: Path, module: str, tests: list[str]) -> None:
     doc = tomlkit.parse((dest / "pyproject.toml").read_text(encoding="utf-8"))
     mm = doc["tool"].setdefault("mutmut", tomlkit.table())  # type: ignore[union-attr]
     mm["source_paths"] = [f"{p}/" for p in PACKAGES]  # every package copied, so the imports resolve
+    # the tests also read docs/ (the example set-ups), README, scripts ...: everything else at the top level
+    mm["also_copy"] = sorted(f"{p.name}/" if p.is_dir() else p.name for p in dest.iterdir()
+                             if p.name not in (*PACKAGES, "tests", "mutants", "mutmut.log"))
     mm["only_mutate"] = [module]
     mm["pytest_add_cli_args_test_selection"] = tests
     (dest / "pyproject.toml").write_text(tomlkit.dumps(doc), encoding="utf-8")
