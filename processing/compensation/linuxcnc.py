@@ -60,9 +60,10 @@ def linuxcnc_applied(table: ErrorTable, *, file_type: int = 1, unit_scale: float
     """The error the controller removes with the file as written (its rounded numbers; the
     loader's trim is nominal − actual for type 0, the number itself for type 1; the trim is
     added to the command, so the error removed is −trim), per direction, in the error unit."""
-    rows = np.array(linuxcnc_columns(table, file_type=file_type, unit_scale=unit_scale, decimals=decimals),
-                    dtype=float).reshape(-1, 3)
-    nominal, fwd, rev = rows.T
+    rows = linuxcnc_columns(table, file_type=file_type, unit_scale=unit_scale, decimals=decimals)
+    # reshape: an empty table gives shape (0,) and must still unpack into three columns (numpy takes any
+    # negative size as the unknown one, so the mutant -2 for -1 is equivalent; the line's others are killed)
+    nominal, fwd, rev = np.array(rows, dtype=float).reshape(-1, 3).T  # pragma: no mutate (equivalent)
     if file_type == 0:
         fwd, rev = nominal - fwd, nominal - rev
     return ErrorTable(nominal, -fwd / unit_scale, -rev / unit_scale, "bidirectional", table.model)
