@@ -253,8 +253,9 @@ def test_reference_position_tolerance_and_range() -> None:
 
 
 def test_grid_must_increase() -> None:
-    for grid in (np.array([0.0, 0.0]), np.array([20.0, 10.0, 0.0])):
-        with pytest.raises(ValueError, match=r"^the grid positions must increase \(3624 > 0\)"):
+    for grid, first_two in ((np.array([0.0, 0.0]), "0 and 0"), (np.array([20.0, 10.0, 0.0]), "20 and 10")):
+        with pytest.raises(ValueError, match=re.escape(f"the grid positions must increase (3624 > 0); the first two "
+                                                       f"are {first_two} mm")):
             fanuc_pitch_table(np.zeros(len(grid)), None, grid_mm=grid, reference_position_mm=float(grid[0]))
 
 
@@ -271,7 +272,7 @@ def test_refusals_name_the_problem() -> None:
         with pytest.raises(ValueError, match="^detection unit must be positive$"):
             fanuc_pitch_table(np.zeros(3), None, grid_mm=grid, reference_position_mm=0.0, detection_unit_um=unit)
     for direction in (0, 2, -2):
-        with pytest.raises(ValueError, match=re.escape("reference direction must be +1 or -1")):
+        with pytest.raises(ValueError, match=r"^reference direction must be \+1 or -1$"):
             fanuc_pitch_table(np.zeros(3), None, grid_mm=grid, reference_position_mm=0.0,
                               reference_direction=direction)
 
@@ -303,5 +304,6 @@ def test_listing_refuses_an_inconsistent_table() -> None:
         fanuc_text(short)
     # bidirectional without 3626
     no_start = FanucPitchTable(0, 1, 2, 1, 10.0, 1.0, 0.0, np.array([1, 2]), values_negative=np.array([0, 0]))
-    with pytest.raises(ValueError, match=re.escape("a bidirectional table needs parameter 3626")):
+    with pytest.raises(ValueError, match=re.escape("a bidirectional table needs parameter 3626 (the first point of its "
+                                                   "negative-direction table)") + "$"):
         fanuc_text(no_start)
