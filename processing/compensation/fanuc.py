@@ -168,7 +168,12 @@ def _fmt_interval(v: float) -> str:
     return f"{v:.3f}"
 
 
-def fanuc_text(t: FanucPitchTable, *, axis: str = "X", note: str = "") -> str:
+def fanuc_text(
+    t: FanucPitchTable,
+    *,
+    axis: str = "X",  # pragma: no mutate (equivalent: upper-cased below, "x" is the same axis)
+    note: str = "",
+) -> str:
     """A parameter listing for entry on the control (parameter and pitch error screens).
 
     Format (ours; the punch-file layout could not be verified, standards.md §4.4):
