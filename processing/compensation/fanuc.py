@@ -30,9 +30,13 @@ import numpy as np
 
 
 def round_half_away(v: np.ndarray | float) -> np.ndarray:
-    """Round to the nearest integer, halves away from zero."""
-    a = np.asarray(v, dtype=float)
-    return (np.sign(a) * np.floor(np.abs(a) + 0.5)).astype(np.int64)
+    """Round to the nearest integer, halves away from zero (int64)."""
+    # float64 or the input's own float/int type give the same result (m − floor(m) is exact in both)
+    a = np.asarray(v, dtype=float)  # pragma: no mutate (equivalent)
+    m = np.abs(a)
+    f = np.floor(m)
+    # m − f is exact in binary floating point; floor(m + 0.5) is not: (0.5 − 2⁻⁵⁴) + 0.5 rounds to 1.0
+    return (np.sign(a) * (f + (m - f >= 0.5))).astype(np.int64)
 
 
 def incremental_from_absolute(c: np.ndarray) -> np.ndarray:
@@ -65,6 +69,7 @@ class FanucPitchTable:
     negative_table_start: int | None = None  # 3626 (bidirectional only)
     reference_offset: int | None = None  # 3627 (bidirectional only)
     values_negative: np.ndarray | None = None
+    reference_direction: int = 1  # reference-return direction (+1 or −1): which table 3627 belongs to
 
     @property
     def bidirectional(self) -> bool:
@@ -76,15 +81,18 @@ class FanucPitchTable:
         return self.reference_position_mm + (n - self.reference_number) * self.interval_mm
 
     def absolute_counts(self) -> tuple[np.ndarray, np.ndarray | None]:
-        """Absolute correction (counts) at :meth:`positions_mm`: the + travel table (0 at the
-        reference) and, bidirectional, the − travel table (3627 at the reference); the sums of
-        the incremental values as the control adds them up."""
+        """Absolute correction (counts) at :meth:`positions_mm`: the + travel table and,
+        bidirectional, the − travel table; the sums of the incremental values as the control adds
+        them up.  The table of the reference-return direction is 0 at the reference, the other one
+        3627 (the reference approached against the reference-return direction)."""
         up = absolute_from_incremental(self.values, self.negative_end, self.reference_number)
         if self.values_negative is None:
             return up, None
-        down = absolute_from_incremental(self.values_negative, self.negative_end, self.reference_number,
-                                         int(self.reference_offset or 0))
-        return up, down
+        down = absolute_from_incremental(self.values_negative, self.negative_end, self.reference_number)
+        offset = int(self.reference_offset or 0)
+        if self.reference_direction == -1:  # reference return in −: the + table is approached against it
+            return up + offset, down
+        return up, down + offset
 
 
 def fanuc_pitch_table(
@@ -100,8 +108,9 @@ def fanuc_pitch_table(
     negative_table_start: int | None = None,
     reference_direction: int = 1,
 ) -> FanucPitchTable:
-    """Build the table from the modelled errors on ``grid_mm`` (equidistant, containing the
-    reference position).  ``error_down_um`` None → one table for both directions.
+    """Build the table from the modelled errors on ``grid_mm`` (increasing, equidistant within
+    1e-9 × max(1 mm, interval), containing the reference position within 1e-6 intervals).
+    ``error_down_um`` None → one table for both directions.
 
     ``first_number`` is the number of the first point (3621) when ``reference_number`` (3620)
     is not given (with the reference at the negative end 3620 = 3621 − 1, so a first number 0
@@ -112,6 +121,8 @@ def fanuc_pitch_table(
     if len(g) < 2:
         raise ValueError("a pitch table needs at least 2 grid positions")
     d = float(g[1] - g[0])
+    if not d > 0:  # a decreasing grid gave a negative 3624; a repeated position a NaN reference index
+        raise ValueError(f"the grid positions must increase (3624 > 0); the first two are {g[0]:g} and {g[1]:g} mm")
     if np.any(np.abs(np.diff(g) - d) > 1e-9 * max(1.0, abs(d))):
         raise ValueError("Fanuc pitch compensation needs an equidistant grid")
     k_ref = (reference_position_mm - g[0]) / d
@@ -139,22 +150,30 @@ def fanuc_pitch_table(
     c_up = round_half_away(-(e_up - e_ref) / q)
     if e_dn is None:
         return FanucPitchTable(reference_number, n_neg, n_pos, magnification, d, detection_unit_um,
-                               float(reference_position_mm), incremental_from_absolute(c_up))
+                               float(reference_position_mm), incremental_from_absolute(c_up),
+                               reference_direction=reference_direction)
     c_dn = round_half_away(-(e_dn - e_ref) / q)
     start = n_pos + 1 if negative_table_start is None else negative_table_start
+    if start < 0:
+        raise ValueError(f"the negative-direction table start (3626) {start} is below 0: point numbers start at 0")
     if start <= n_pos and start + (n_pos - n_neg) >= n_neg:
         raise ValueError("the negative-direction table overlaps the positive-direction table")
     offset = int(c_dn[k_ref] if reference_direction == 1 else c_up[k_ref])
     return FanucPitchTable(reference_number, n_neg, n_pos, magnification, d, detection_unit_um,
                            float(reference_position_mm), incremental_from_absolute(c_up), start, offset,
-                           incremental_from_absolute(c_dn))
+                           incremental_from_absolute(c_dn), reference_direction)
 
 
 def _fmt_interval(v: float) -> str:
     return f"{v:.3f}"
 
 
-def fanuc_text(t: FanucPitchTable, *, axis: str = "X", note: str = "") -> str:
+def fanuc_text(
+    t: FanucPitchTable,
+    *,
+    axis: str = "X",  # pragma: no mutate (equivalent: upper-cased below, "x" is the same axis)
+    note: str = "",
+) -> str:
     """A parameter listing for entry on the control (parameter and pitch error screens).
 
     Format (ours; the punch-file layout could not be verified, standards.md §4.4):
@@ -181,8 +200,10 @@ def fanuc_text(t: FanucPitchTable, *, axis: str = "X", note: str = "") -> str:
         lines.append(f"PARAM 3627={t.reference_offset}")
     lines.append("(POSITIVE DIRECTION)" if t.bidirectional else "(BOTH DIRECTIONS)")
     lines += [f"PITCH {n}={int(v)}" for n, v in zip(range(t.negative_end, t.positive_end + 1), t.values, strict=True)]
-    if t.bidirectional:
-        assert t.values_negative is not None and t.negative_table_start is not None
+    if t.values_negative is not None:
+        if t.negative_table_start is None:
+            raise ValueError("a bidirectional table needs parameter 3626 (the first point of its negative-direction "
+                             "table)")
         lines.append("(NEGATIVE DIRECTION)")
         lines += [f"PITCH {t.negative_table_start + i}={int(v)}" for i, v in enumerate(t.values_negative)]
     return "\n".join(lines) + "\n"
