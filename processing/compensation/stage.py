@@ -22,6 +22,7 @@ from .stage_linuxcnc import LinuxCncComp, read_linuxcnc_comp
 from .stage_siemens import SiemensComp, read_siemens_comp
 
 FORMATS = ("linuxcnc", "fanuc", "siemens")
+_SIGN = {1: "+", -1: "−"}
 
 
 def detect_format(text: str) -> str | None:
@@ -49,9 +50,10 @@ class ControllerTable:
 
     ``reference_position`` (Fanuc): the axis coordinate of the reference position the table is
     relative to; ``detection_unit_um`` (Fanuc): one detection unit (µm, or 0.001 deg on a rotary
-    axis); ``reference_direction`` (Fanuc): the reference-return direction, the backlash state at
-    power-on; ``backlash`` (Siemens MD32450 BACKLASH, mm or deg): the lost motion the control makes
-    up on a reversal (a Fanuc 1851 is part of :class:`FanucComp`)."""
+    axis); ``reference_direction`` (Fanuc): the reference-return direction (the control's
+    parameter 1006#5 ZMI: 0 = +1, 1 = −1), the backlash state at power-on and, bidirectional, the
+    side 3627 is on (the table approached against it); ``backlash`` (Siemens MD32450 BACKLASH, mm or
+    deg): the lost motion the control makes up on a reversal (a Fanuc 1851 is part of :class:`FanucComp`)."""
 
     fmt: str
     table: LinuxCncComp | FanucComp | SiemensComp
@@ -116,7 +118,7 @@ class ControllerTable:
             reversed_ = direction not in (0, self.reference_direction)
             return t.correction(commanded, direction) + (direction * self.backlash if reversed_ else 0.0)
         d = direction or self.reference_direction  # at power-on the control takes the reference direction
-        counts = t.pitch_counts(commanded, d, self.reference_position) if referenced else 0.0
+        counts = t.pitch_counts(commanded, d, self.reference_position, self.reference_direction) if referenced else 0.0
         pitch = counts * self.detection_unit_um * t.magnification
         backlash = t.backlash_counts(d, self.reference_direction, rapid) * self.detection_unit_um
         return (pitch + backlash) * 1e-3  # µm -> mm (0.001 deg -> deg)
@@ -153,6 +155,15 @@ def load_controller_table(text: str, fmt: str, *, comp_file_type: int | None = N
             raise ValueError("the detection unit must be positive")
         if reference_direction not in (1, -1):
             raise ValueError("the reference-return direction must be +1 or -1")
+        written = f.written_reference_direction
+        if f.bidirectional and written is not None and written != reference_direction:
+            # 3627 belongs to the table approached against the reference return: read for the other
+            # direction it would sit on the other table and shift both tables' corrections by it
+            raise ValueError(f"the listing's 3627 is for a reference return in {_SIGN[written]} "
+                             f"(1006#5 ZMI = {int(written < 0)}), the controller returns in "
+                             f"{_SIGN[reference_direction]} (reference_direction = {reference_direction}): give "
+                             f"reference_direction = {written} if the machine returns in {_SIGN[written]}, else "
+                             f"export the table again with --fanuc-reference-direction {reference_direction}")
         if backlash is not None:
             f = replace(f, backlash_cutting=int(np.floor(backlash * 1000.0 / unit + 0.5)))
         return ControllerTable(fmt, f, float(ref), float(unit), reference_direction)

@@ -11,8 +11,14 @@ Pitch error compensation (standards.md §4.4, 0i-PB parameter manual B-63980EN p
 * beyond the points 3621 − 1 … 3622 nothing more is output: the end values hold;
 * between points the increment's pulses are output as the axis crosses the interval: modelled as
   linear between the points (the pulses are whole, so a real control is within one count of it);
-* bidirectional (3605#0 BDP = 1): the − travel table starts at 3626 with the same length, its
-  absolute value at the reference position is 3627 [KNOW in standards.md];
+* bidirectional (3605#0 BDP = 1): the − travel table starts at 3626 with the same length; 3627 is
+  the absolute value at the reference position approached from the direction opposite to the
+  reference-return direction [KNOW in standards.md], i.e. the − table's with a reference return in +
+  (1006#5 ZMI = 0), the + table's with a reference return in − (ZMI = 1); the table of the
+  reference-return direction is 0 there.  The reference-return direction is a machine parameter of
+  the control, not part of the listing: the caller gives it (the set-up's ``reference_direction``);
+  the listing's comment states the one it was written for, and a listing written for the other one
+  is refused (its 3627 would sit on the wrong table);
 * rotary axis (3625 = travel per revolution > 0): the position is taken modulo 3625 from the
   reference position (the standards.md rotary example: points 3620 … 3622 cover one revolution);
 * active only after a reference return (standards.md §4.4: "reference return required").
@@ -41,6 +47,7 @@ _PITCH = re.compile(r"^PITCH\s+(\d+)\s*=\s*([+-]?\d+)$")
 _REFERENCE = re.compile(r"REFERENCE POSITION ([+-]?\d+(?:\.\d*)?(?:E[+-]?\d+)?) (?:MM|DEG) = POINT (\d+)")
 _COUNT = re.compile(r"ONE COUNT = ([+-]?\d+(?:\.\d*)?(?:E[+-]?\d+)?) UM")
 _AXIS = re.compile(r"COMPENSATION AXIS ([A-Z])\b")
+_RETURN = re.compile(r"REFERENCE RETURN IN ([+-]) DIRECTION")
 
 
 @dataclass(frozen=True)
@@ -54,13 +61,14 @@ class FanucComp:
     interval: float  # 3624, mm (deg)
     values: np.ndarray  # increments of points 3621 … 3622 (counts), + travel (or both)
     values_negative: np.ndarray | None = None  # 3626 …, − travel (3605#0 = 1)
-    reference_offset: int = 0  # 3627: − table's absolute counts at the reference position
+    reference_offset: int = 0  # 3627: counts at the reference of the table against the reference return
     rotary_travel: float = 0.0  # 3625 (0: linear axis)
     backlash_cutting: int = 0  # 1851, detection units
     backlash_rapid: int | None = None  # 1852 when 1800#4 RBK = 1
     reference_position: float | None = None  # axis coordinate of the reference position (listing comment)
     detection_unit: float | None = None  # µm (listing comment); None: not stated in the file
     axis: str | None = None  # the listing's axis letter
+    written_reference_direction: int | None = None  # the reference return the listing says it is for (comment)
 
     @property
     def bidirectional(self) -> bool:
@@ -71,22 +79,26 @@ class FanucComp:
         n = np.arange(self.negative_end - 1, self.positive_end + 1)
         return reference_position + (n - self.reference_number) * self.interval
 
-    def absolute_counts(self, direction: int) -> np.ndarray:
-        """Absolute correction (counts) at :meth:`point_positions`: the running sum of the
-        increments, 0 at the reference point (+ table) or 3627 (− table, bidirectional)."""
+    def absolute_counts(self, direction: int, reference_direction: int) -> np.ndarray:
+        """Absolute correction (counts) at :meth:`point_positions` for travel in ``direction`` with the
+        reference return in ``reference_direction`` (+1 or −1): the running sum of the increments, 0 at
+        the reference point, or 3627 there for the bidirectional table of the direction opposite to the
+        reference return."""
         neg = self.values_negative is not None and direction < 0
         v = self.values_negative if neg and self.values_negative is not None else self.values
         cum = np.concatenate(([0], np.cumsum(np.asarray(v, dtype=np.int64))))
         k = self.reference_number - (self.negative_end - 1)
-        return cum - cum[k] + (self.reference_offset if neg else 0)
+        against = self.bidirectional and (direction < 0) != (reference_direction < 0)
+        return cum - cum[k] + (self.reference_offset if against else 0)
 
-    def pitch_counts(self, commanded: float, direction: int, reference_position: float) -> float:
+    def pitch_counts(self, commanded: float, direction: int, reference_position: float,
+                     reference_direction: int) -> float:
         """The pitch-error correction (counts, fractional between points) at ``commanded``."""
         x = commanded
         if self.rotary_travel > 0:
             x = reference_position + float(np.mod(commanded - reference_position, self.rotary_travel))
         at = self.point_positions(reference_position)
-        return float(np.interp(x, at, self.absolute_counts(direction)))
+        return float(np.interp(x, at, self.absolute_counts(direction, reference_direction)))
 
     def backlash_counts(self, direction: int, reference_direction: int, rapid: bool = False) -> int:
         """The backlash correction (detection units) for the last motion ``direction``: 0 in the
@@ -103,6 +115,7 @@ def read_fanuc_listing(text: str) -> FanucComp:
     points: dict[int, int] = {}
     reference_position = unit = None
     axis = None
+    written_direction = None
     for number, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
         if not line:
@@ -114,6 +127,8 @@ def read_fanuc_listing(text: str) -> FanucComp:
                 unit = float(m.group(1))
             if m := _AXIS.search(line.upper()):
                 axis = m.group(1)
+            if m := _RETURN.search(line.upper()):
+                written_direction = 1 if m.group(1) == "+" else -1
             continue
         if m := _PARAM.match(line):
             params[m.group(1)] = float(m.group(2))
@@ -150,4 +165,4 @@ def read_fanuc_listing(text: str) -> FanucComp:
     return FanucComp(ref, n_neg, n_pos, mag, interval, values, negative, int(params.get("3627", 0)),
                      float(params.get("3625", 0.0)), int(params.get("1851", 0)),
                      int(params["1852"]) if rbk and "1852" in params else None,
-                     reference_position, unit, axis)
+                     reference_position, unit, axis, written_direction)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from processing.compensation.fanuc import fanuc_pitch_table, fanuc_text
 from processing.compensation.stage import Compensator, detect_format, load_controller_table
 from processing.compensation.stage_linuxcnc import read_linuxcnc_comp
 
@@ -320,3 +321,54 @@ def test_format_detection() -> None:
     assert detect_format(fanuc_listing(MANUAL_INCREMENTS)) == "fanuc"
     assert detect_format(TYPE1) == "linuxcnc"
     assert detect_format("hello\n") is None
+
+
+def test_fanuc_reference_return_minus_puts_3627_on_the_plus_table() -> None:
+    # 3627 is the absolute correction at the reference approached against the reference return (standards.md
+    # §4.4): with a reference return in − (1006#5 ZMI = 1) that is the + table; the − table is 0 there
+    extra = ("PARAM 3626=60", "PARAM 3627=5")
+    text = fanuc_listing(MANUAL_INCREMENTS, extra=extra).replace("PARAM 3605#0=0", "PARAM 3605#0=1")
+    text += "".join(f"PITCH {60 + i}=1\n" for i in range(len(MANUAL_INCREMENTS)))
+    t = load_controller_table(text, "fanuc", reference_position=0.0, reference_direction=-1)
+    assert t.correction(0.0, 1) * 1000 == pytest.approx(5.0)
+    assert t.correction(100.0, 1) * 1000 == pytest.approx(5.0 + 3.0)  # the manual's profile is 3 at 100 mm
+    assert t.correction(-100.0, 1) * 1000 == pytest.approx(5.0 + 1.0)  # and 1 at −100 mm
+    assert t.correction(0.0, -1) * 1000 == pytest.approx(0.0)
+    assert t.correction(100.0, -1) * 1000 == pytest.approx(2.0)  # two increments of 1 from the reference
+    assert t.correction(-100.0, -1) * 1000 == pytest.approx(-2.0)
+
+
+def _reference_minus_listing() -> str:
+    return fanuc_text(fanuc_pitch_table(np.array([2.0, 4.0, -4.0, 9.0]), np.array([0.0, 8.0, 1.0, -6.0]),
+                                        grid_mm=np.array([0.0, 10.0, 20.0, 30.0]), reference_position_mm=10.0,
+                                        magnification=2, reference_number=5, reference_direction=-1))
+
+
+def test_fanuc_bidirectional_reference_return_minus_round_trips_writer_to_controller() -> None:
+    # grid 0 … 30 mm, reference 10 mm, one count = 1 um × 2.  Reference return in −: the − curve is the zero at
+    # the reference, e_ref = e↓(10) = 8 um; the intended corrections c = round(−(e − e_ref)/2), halves away from 0:
+    # c↑ = −(2 − 8, 4 − 8, −4 − 8, 9 − 8)/2 = 3, 2, 6, −0.5 → 3, 2, 6, −1
+    # c↓ = −(0 − 8, 8 − 8, 1 − 8, −6 − 8)/2 = 4, 0, 3.5, 7 → 4, 0, 4, 7
+    t = load_controller_table(_reference_minus_listing(), "fanuc", reference_direction=-1)  # 10 mm: the comment
+    x = [0.0, 10.0, 20.0, 30.0]
+    assert [round(t.correction(p, 1) * 1000, 9) for p in x] == [2 * c for c in (3, 2, 6, -1)]
+    assert [round(t.correction(p, -1) * 1000, 9) for p in x] == [2 * c for c in (4, 0, 4, 7)]
+    # at power-on (no motion yet) the control takes the reference-return direction: the − table
+    assert t.correction(20.0, 0) * 1000 == pytest.approx(8.0)
+
+
+def test_fanuc_bidirectional_reference_return_plus_round_trips_writer_to_controller() -> None:
+    # e↑ = 1, 2, 4; e↓ = −2, 0, 3 at 0, 10, 20 mm, reference 0 mm returned to in +: e_ref = e↑(0) = 1,
+    # c↑ = 0, −1, −3; c↓ = 3, 1, −2 (3627 = 3 on the − table)
+    text = fanuc_text(fanuc_pitch_table(np.array([1.0, 2.0, 4.0]), np.array([-2.0, 0.0, 3.0]),
+                                        grid_mm=np.array([0.0, 10.0, 20.0]), reference_position_mm=0.0))
+    t = load_controller_table(text, "fanuc")
+    assert [round(t.correction(p, 1) * 1000, 9) for p in (0.0, 10.0, 20.0)] == [0, -1, -3]
+    assert [round(t.correction(p, -1) * 1000, 9) for p in (0.0, 10.0, 20.0)] == [3, 1, -2]
+
+
+def test_fanuc_listing_for_another_reference_return_is_refused() -> None:
+    # the listing says which reference return its 3627 is for; a controller returning the other way would put
+    # 3627 on the other table (every correction off by it): refused, naming the set-up's reference_direction
+    with pytest.raises(ValueError, match=r"reference return in − \(1006#5 ZMI = 1\).*reference_direction = -1"):
+        load_controller_table(_reference_minus_listing(), "fanuc")

@@ -147,6 +147,7 @@ def test_bidirectional_reference_return_minus_listing_and_counts() -> None:
         "(3624 IN MM; SERIES THAT TAKE DETECTION UNITS: 10000)\n"
         "PARAM 3624=10.000\n"
         "PARAM 3626=8\n"
+        "(REFERENCE RETURN IN - DIRECTION, 1006#5 ZMI = 1: 3627 IS THE + TABLE AT THE REFERENCE)\n"
         "PARAM 3627=2\n"
         "(POSITIVE DIRECTION)\n"
         "PITCH 5=-1\n"
@@ -172,6 +173,9 @@ def test_bidirectional_reference_return_plus_3627_on_the_minus_table() -> None:
     assert t.values_negative.tolist() == [-2, -3]
     up, down = t.absolute_counts()
     assert up.tolist() == [0, -1, -3] and down is not None and down.tolist() == [3, 1, -2]
+    # the listing says which reference return (the control's 1006#5 ZMI, not written) its 3627 is for
+    assert "\n(REFERENCE RETURN IN + DIRECTION, 1006#5 ZMI = 0: 3627 IS THE - TABLE AT THE REFERENCE)\nPARAM 3627=3\n" \
+        in fanuc_text(t)
     # e↓ = 1, 3, 3 equals e↑ at the reference: 3627 = 0, c↓ = 0, −2, −2
     t = fanuc_pitch_table(np.array([1.0, 2.0, 4.0]), np.array([1.0, 3.0, 3.0]), grid_mm=grid,
                           reference_position_mm=0.0, first_number=1)
