@@ -159,20 +159,29 @@ _PITCH = re.compile(r"^PITCH (\d+)=([+-]?\d+)$")
 class FanucPitch:
     params: dict[str, float]
     points: dict[int, int]
+    written_for: str | None = None  # "+" / "-": the reference return the listing's comment says it is for
 
-    def absolute_counts(self, pos_mm: np.ndarray, ref_mm: float, direction: int) -> np.ndarray:
-        """Absolute correction (counts) at compensation-point positions.
+    def absolute_counts(self, pos_mm: np.ndarray, ref_mm: float, direction: int,
+                        reference_direction: int = 1) -> np.ndarray:
+        """Absolute correction (counts) at compensation-point positions, travelling in ``direction``
+        on a control whose reference return is in ``reference_direction`` (1006#5 ZMI = 0: +1, 1: −1).
 
         Point N is at x_ref + (N − 3620)·3624; its incremental value is output while the axis
         crosses from point N−1 to N, so the absolute value at point N is the sum of the
-        increments from the reference point to N (negated below the reference), zero at the
-        reference for the + table, 3627 for the bidirectional − table."""
+        increments from the reference point to N (negated below the reference).  At the reference
+        the value is zero, except (bidirectional, 3605#0 = 1) for the table travelled against the
+        reference return: 3627 is "the compensation amount (absolute) at the reference position
+        when approaching it from the direction opposite to the reference-return direction".
+        The + travel table is points 3621 …, the − travel table points 3626 …."""
         p = self.params
         ref, n_neg, n_pos, d = int(p["3620"]), int(p["3621"]), int(p["3622"]), p["3624"]
         bidirectional = p.get("3605#0", 0) == 1
-        base, offset = n_neg, 0
-        if bidirectional and direction < 0:
-            base, offset = int(p["3626"]), int(p["3627"])
+        if bidirectional and self.written_for is not None:
+            assert self.written_for == ("+" if reference_direction > 0 else "-"), (
+                f"the listing is for a reference return in {self.written_for}")
+        base = int(p["3626"]) if bidirectional and direction < 0 else n_neg
+        approached_against_return = (direction > 0) != (reference_direction > 0)
+        offset = int(p["3627"]) if bidirectional and approached_against_return else 0
         out = []
         for x in np.atleast_1d(np.asarray(pos_mm, dtype=float)):
             k = (x - ref_mm) / d
@@ -183,8 +192,9 @@ class FanucPitch:
             out.append(offset + (sum(inc) if n >= ref else -sum(inc)))
         return np.array(out)
 
-    def correction_um(self, pos_mm: np.ndarray, ref_mm: float, direction: int, unit_um: float) -> np.ndarray:
-        return self.absolute_counts(pos_mm, ref_mm, direction) * unit_um * self.params["3623"]
+    def correction_um(self, pos_mm: np.ndarray, ref_mm: float, direction: int, unit_um: float,
+                      reference_direction: int = 1) -> np.ndarray:
+        return self.absolute_counts(pos_mm, ref_mm, direction, reference_direction) * unit_um * self.params["3623"]
 
     def point_positions_mm(self, ref_mm: float) -> np.ndarray:
         """Positions of points 3621 − 1 … 3622 (the first one is where the first increment starts)."""
@@ -193,20 +203,24 @@ class FanucPitch:
         return ref_mm + (n - int(p["3620"])) * p["3624"]
 
     def correction_um_anywhere(self, pos_mm: np.ndarray, ref_mm: float, direction: int,
-                               unit_um: float) -> np.ndarray:
+                               unit_um: float, reference_direction: int = 1) -> np.ndarray:
         """The correction at any position: point N's increment is output while the axis crosses
         from point N−1 to N, i.e. spread over the interval (linear between the points); outside
         the compensated stroke nothing more is output (the end values hold)."""
         at = self.point_positions_mm(ref_mm)
-        return np.interp(np.asarray(pos_mm, dtype=float), at, self.correction_um(at, ref_mm, direction, unit_um))
+        return np.interp(np.asarray(pos_mm, dtype=float), at,
+                         self.correction_um(at, ref_mm, direction, unit_um, reference_direction))
 
 
 def read_fanuc(text: str) -> FanucPitch:
     params: dict[str, float] = {}
     points: dict[int, int] = {}
+    written_for = None
     for ln in text.splitlines():
         ln = ln.strip()
         if not ln or (ln.startswith("(") and ln.endswith(")")):
+            if m := re.search(r"REFERENCE RETURN IN ([+-]) DIRECTION", ln):
+                written_for = m.group(1)
             continue
         if m := _PARAM.match(ln):
             params[m.group(1)] = float(m.group(2))
@@ -222,4 +236,4 @@ def read_fanuc(text: str) -> FanucPitch:
         start = int(params["3626"])
         expected |= set(range(start, start + n_pos - n_neg + 1))
     assert set(points) == expected, "one value per compensation point"
-    return FanucPitch(params, points)
+    return FanucPitch(params, points, written_for)

@@ -160,6 +160,36 @@ def test_fanuc_bidirectional_tables_reproduce_the_intended_correction() -> None:
         np.testing.assert_allclose(compensated, e_ref, atol=0.5 + 1e-9)  # within half a count
 
 
+def test_fanuc_bidirectional_reference_return_minus_reproduces_the_intended_correction() -> None:
+    step, ref = 50.0, 100.0
+    grid = equidistant_grid(0.0, 500.0, step, anchor=ref)
+    table = build_table(TARGET, UP, DOWN, model="spline", positions=grid)
+    t = fanuc_pitch_table(table.error_up, table.error_down, grid_mm=grid, reference_position_mm=ref,
+                          first_number=10, reference_direction=-1)
+    f = read_fanuc(fanuc_text(t))
+    e_ref = table.error_down[2]  # reference return in − direction: the − curve is zero at the reference
+    # 3627: the + table at the reference, approached against the reference return
+    assert f.params["3627"] == round(-(table.error_up[2] - e_ref))
+    for e_tab, direction in ((table.error_up, +1), (table.error_down, -1)):
+        compensated = e_tab + f.correction_um(grid, ref, direction, 1.0, reference_direction=-1)
+        np.testing.assert_allclose(compensated, e_ref, atol=0.5 + 1e-9)  # within half a count
+
+
+def test_fanuc_reader_reference_return_minus_hand_counts() -> None:
+    # grid 0 … 30 mm, reference 10 mm = point 5, × 2; reference return in −: e_ref = e↓(10) = 8 um,
+    # c↑ = round(−(2 − 8, 4 − 8, −4 − 8, 9 − 8)/2) = 3, 2, 6, −1; c↓ = round(−(0 − 8, 8 − 8, 1 − 8, −6 − 8)/2)
+    # = 4, 0, 4, 7 (halves away from zero)
+    t = fanuc_pitch_table(np.array([2.0, 4.0, -4.0, 9.0]), np.array([0.0, 8.0, 1.0, -6.0]),
+                          grid_mm=np.array([0.0, 10.0, 20.0, 30.0]), reference_position_mm=10.0, magnification=2,
+                          reference_number=5, reference_direction=-1)
+    f = read_fanuc(fanuc_text(t))
+    x = np.array([0.0, 10.0, 20.0, 30.0])
+    assert f.absolute_counts(x, 10.0, +1, reference_direction=-1).tolist() == [3, 2, 6, -1]
+    assert f.absolute_counts(x, 10.0, -1, reference_direction=-1).tolist() == [4, 0, 4, 7]
+    with pytest.raises(AssertionError, match="reference return"):  # the listing says it is for −
+        f.absolute_counts(x, 10.0, +1)
+
+
 def test_fanuc_rejects_bad_grids() -> None:
     with pytest.raises(ValueError, match="grid positions"):
         fanuc_pitch_table(np.zeros(3), None, grid_mm=np.array([0.0, 10.0, 20.0]), reference_position_mm=5.0)
