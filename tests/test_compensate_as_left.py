@@ -52,6 +52,8 @@ CASES = {
     "linuxcnc-type1": (("--format", "linuxcnc", "--linuxcnc-type", "1"), ("--comp-file-type", "1")),
     "fanuc": (("--format", "fanuc"), ()),
     "fanuc+1851": (("--format", "fanuc", "--mode", "backlash"), ()),  # one table, the lost motion in 1851
+    # bidirectional, the machine returning to the reference in − (1006#5 ZMI = 1): 3627 is on the + table
+    "fanuc-reference-minus": (("--format", "fanuc", "--fanuc-reference-direction", "-1"), ()),
     "siemens": (("--format", "siemens"), ()),  # the LEC file alone: not direction dependent
     "siemens+MD32450": (("--format", "siemens"), ()),  # with the reported lost motion in MD32450
 }
@@ -68,7 +70,8 @@ def predicted_correction_um(name: str, text: str, x: np.ndarray, direction: int,
         # 1851 (whole detection units): made up in the new direction after the first reversal from the
         # reference-return direction (+), so moving - the axis is moved 1851 units further -
         backlash = -float(np.floor(lost_motion_um + 0.5)) if direction < 0 else 0.0
-        return read_fanuc(text).correction_um_anywhere(x, first_target, direction, 1.0) + backlash
+        reference_direction = -1 if name == "fanuc-reference-minus" else 1
+        return read_fanuc(text).correction_um_anywhere(x, first_target, direction, 1.0, reference_direction) + backlash
     backlash = lost_motion_um * direction if direction < 0 else 0.0
     return read_siemens_lec(text).correction_um(x) + backlash  # LEC: not direction dependent
 
@@ -90,6 +93,9 @@ def test_as_left_run_meets_the_predicted_residual(tmp_path: Path, name: str) -> 
         # the lost motion the export reports for MD32450 / 1851: -mean(up - down), computed here from the means
         lost_um = round(-float(np.mean(found_up - found_dn)), 3)
         setup = setup_file(tmp_path, f'\n[compensation]\nfile = "{table}"\nbacklash_um = {lost_um}\n')
+        acquire(setup, left, seed=1)
+    elif name == "fanuc-reference-minus":  # the simulated controller's 1006#5: the set-up's reference_direction
+        setup = setup_file(tmp_path, f'\n[compensation]\nfile = "{table}"\nreference_direction = -1\n')
         acquire(setup, left, seed=1)
     else:
         acquire(setup, left, "--compensation", table, *acquire_args, seed=1)  # another seed: other noise
