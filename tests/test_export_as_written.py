@@ -86,6 +86,23 @@ def test_fanuc_table_stays_inside_and_is_scored_as_written(run_dir: Path, tmp_pa
     assert any("0.002 mm before the last target" in n for n in got["notes"])
 
 
+def test_fanuc_bidirectional_reference_return_minus_is_scored_as_written(run_dir: Path, tmp_path: Path,
+                                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    # 3627 belongs to the + table with a reference return in − (read by the test-side reader from the manual's rule)
+    got = export_json(run_dir, tmp_path / "x.txt", "--format", "fanuc", "--fanuc-reference-direction", "-1",
+                      capsys=capsys)
+    f = read_fanuc((tmp_path / "x.txt").read_text(encoding="utf-8"))
+    assert f.params["3605#0"] == 1
+    ref = TARGETS[0]
+    # the − curve is the zero at the reference: 3627 = round(−(e↑ − e↓)) there = round(−(0.5 − 4.7)) = 4
+    assert f.params["3627"] == 4
+    dev = measured()
+    corr = np.concatenate([f.correction_um_anywhere(g.target.to_numpy(), ref, d, 1.0, reference_direction=-1)
+                           for d, g in dev.groupby("direction", sort=False)])
+    dev = pd.concat([g for _, g in dev.groupby("direction", sort=False)])
+    check_written(got, dev, corr)
+
+
 def test_fanuc_backlash_mode_applies_the_reported_parameter(run_dir: Path, tmp_path: Path,
                                                            capsys: pytest.CaptureFixture[str]) -> None:
     got = export_json(run_dir, tmp_path / "x.txt", "--format", "fanuc", "--mode", "backlash", "--step", "100",
