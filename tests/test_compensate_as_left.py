@@ -264,6 +264,29 @@ def test_export_from_an_as_left_run_refuses_to_combine_other_tables(tmp_path: Pa
     assert "does not record whether a compensation table was active" in json.loads(res.stdout)["notes"][0]
 
 
+def test_fanuc_reference_return_minus_listing_needs_the_controller_returning_in_minus(tmp_path: Path) -> None:
+    # the reference-return direction is the control's parameter 1006#5 ZMI (the set-up's reference_direction),
+    # not part of the listing: a listing whose 3627 is for a return in − is refused by a controller set up for +
+    setup = setup_file(tmp_path, runs=2)
+    found, left, table = tmp_path / "found", tmp_path / "left", tmp_path / "f.txt"
+    acquire(setup, found)
+    res = guideway("export", found, "--format", "fanuc", "--fanuc-reference-direction", "-1", "--out", table)
+    assert res.returncode == 0, res.stderr
+    one_line_error(guideway("acquire", "positioning", "--setup", setup, "--out", left, "--simulate", "--auto",
+                            "--compensation", table), "reference return in −", "reference_direction = -1")
+    assert not left.exists()
+    setup = setup_file(tmp_path, f'\n[compensation]\nfile = "{table}"\nreference_direction = -1\n', runs=2)
+    acquire(setup, left, seed=1)
+    assert json.loads((left / "run.json").read_text())["compensation"]["reference_direction"] == -1
+    # a new table from this as-left run is for the same machine: its reference return in − as well
+    one_line_error(guideway("export", left, "--format", "fanuc", "--out", tmp_path / "g.txt"),
+                   "reference return in −", "--fanuc-reference-direction -1")
+    res = guideway("export", left, "--format", "fanuc", "--fanuc-reference-direction", "-1", "--out",
+                   tmp_path / "g.txt", "--json")
+    assert res.returncode == 0, res.stderr
+    assert "CARTO" in json.loads(res.stdout)["notes"][0]
+
+
 def test_rotary_axis_with_a_modulo_lec_table(tmp_path: Path) -> None:
     # a rotary axis (deg, arcsec): the Siemens modulo table of one revolution, applied by the simulated controller
     setup = tmp_path / "rot.toml"

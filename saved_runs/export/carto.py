@@ -116,6 +116,12 @@ def _same_axis_and_units(table: ControllerTable, options: ExportOptions, axis: s
             raise UserError(f"the active table counts in {table.detection_unit_um:g} um detection units, this export "
                             f"in {options.fanuc_detection_unit_um:g} um: tables of different units are not combined "
                             "(--fanuc-detection-unit)")
+        if table.reference_direction != options.fanuc_reference_direction:
+            # one machine, one reference-return direction (1006#5 ZMI): it decides which table 3627 is on
+            old, new = ("+" if d > 0 else "−" for d in (table.reference_direction, options.fanuc_reference_direction))
+            raise UserError(f"the active table was applied with the reference return in {old} (run.json "
+                            f"reference_direction = {table.reference_direction}), this export is for a return in "
+                            f"{new}: export with --fanuc-reference-direction {table.reference_direction}")
 
 
 def without_active_table(result: Any, deviations: pd.DataFrame | None, active: ActiveTable
