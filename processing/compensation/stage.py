@@ -161,9 +161,10 @@ def load_controller_table(text: str, fmt: str, *, comp_file_type: int | None = N
             # direction it would sit on the other table and shift both tables' corrections by it
             raise ValueError(f"the listing's 3627 is for a reference return in {_SIGN[written]} "
                              f"(1006#5 ZMI = {int(written < 0)}), the controller returns in "
-                             f"{_SIGN[reference_direction]} (reference_direction = {reference_direction}): give "
-                             f"reference_direction = {written} if the machine returns in {_SIGN[written]}, else "
-                             f"export the table again with --fanuc-reference-direction {reference_direction}")
+                             f"{_SIGN[reference_direction]} (reference_direction = {reference_direction}): set "
+                             f"reference_direction = {written} in [compensation] if the machine returns in "
+                             f"{_SIGN[written]}, else export the table again with --fanuc-reference-direction "
+                             f"{reference_direction}")
         if backlash is not None:
             f = replace(f, backlash_cutting=int(np.floor(backlash * 1000.0 / unit + 0.5)))
         return ControllerTable(fmt, f, float(ref), float(unit), reference_direction)

@@ -14,6 +14,7 @@ from typing import Any
 
 FANUC_PARAM = re.compile(r"^PARAM (\S+)=(\S+)$")
 FANUC_1851 = re.compile(r"1851 = (-?\d+)", re.IGNORECASE)
+FANUC_RETURN = re.compile(r"REFERENCE RETURN IN ([+-]) DIRECTION")
 SIEMENS_ENTRY = re.compile(r"^\$AA_ENC_COMP\[(\d+),(\d+),(\w+)\]")
 
 
@@ -50,8 +51,19 @@ def _fanuc(text: str, name: str, measure: str) -> list[str]:
     pitch = [ln.split()[1] for ln in text.splitlines() if ln.startswith("PITCH ")]
     first = pitch[0].split("=")[0] if pitch else "?"
     last = pitch[-1].split("=")[0] if pitch else "?"
-    lines = ["MDI mode, emergency stop pressed; enable parameter writing (PWE = 1 on the setting screen)",
-             "enter the parameters in this order: " + ", ".join(f"{n} = {v}" for n, v in params)]
+    lines = ["MDI mode, emergency stop pressed; enable parameter writing (PWE = 1 on the setting screen)"]
+    written = FANUC_RETURN.search(text)
+    if written:  # bidirectional: 3627 is for that reference return, the machine's own 1006#5 (not in the listing)
+        sign = written.group(1)
+        zmi = 1 if sign == "-" else 0
+        lines.append(f"check parameter 1006#5 ZMI = {zmi} (reference return in {'−' if zmi else '+'}): 3627 is written "
+                     "for that direction; do not change it (it sets how the axis homes): if it differs, export "
+                     f"again with --fanuc-reference-direction {-1 if zmi == 0 else 1}")
+        if zmi:  # the simulated or recorded controller takes the direction from the set-up (default +)
+            measure = (f"measure again with the table active: the set-up's [compensation] with file = \"{name}\" and "
+                       "reference_direction = -1 (--compensation alone means a return in +), guideway acquire "
+                       "positioning ..., then guideway verify AS_FOUND AS_LEFT")
+    lines.append("enter the parameters in this order: " + ", ".join(f"{n} = {v}" for n, v in params))
     backlash = FANUC_1851.search(text)
     if backlash:
         lines.append(f"and the backlash parameter 1851 = {backlash.group(1)} (detection units; 1852 for rapid "
