@@ -119,9 +119,16 @@ def run_module(module: str, workdir: Path, jobs: int, keep: bool) -> dict[str, l
     print(f"== {module}: {len(tests)} test files ({dest / 'mutmut.log'})", flush=True)
     env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
     t0 = time.monotonic()
+    run = [sys.executable, "-m", "mutmut", "run", "--max-children", str(jobs)]
     with open(dest / "mutmut.log", "w", encoding="utf-8") as log:
-        rc = subprocess.run([sys.executable, "-m", "mutmut", "run", "--max-children", str(jobs)], cwd=dest,
-                            env=env, stdout=log, stderr=subprocess.STDOUT).returncode
+        rc = subprocess.run(run, cwd=dest, env=env, stdout=log, stderr=subprocess.STDOUT).returncode
+        if rc == 0 and keep and (dest / "mutants" / f"{module}.meta").exists():
+            # mutmut re-runs a mutant only when its function changed, not when the tests did: an earlier
+            # survivor is tested again by name (the new tests may kill it)
+            again = verdicts(dest, module)["survived"]
+            if again:
+                rc = subprocess.run([*run, *again], cwd=dest, env=env, stdout=log,
+                                    stderr=subprocess.STDOUT).returncode
     if rc != 0 or not (dest / "mutants" / f"{module}.meta").exists():
         print(f"   mutmut failed (exit {rc}); see {dest / 'mutmut.log'}", flush=True)
         return {}
@@ -137,8 +144,8 @@ def main() -> int:
     ap.add_argument("--jobs", type=int, default=2, help="mutmut --max-children (default 2)")
     ap.add_argument("--workdir", type=Path, default=Path(os.environ.get("TMPDIR", "/tmp")) / "guideway-mutation",
                     help="scratch directories, one per module (default $TMPDIR/guideway-mutation)")
-    ap.add_argument("--keep", action="store_true", help="reuse an earlier run's results (mutmut re-runs only "
-                    "what changed); default: start afresh")
+    ap.add_argument("--keep", action="store_true", help="reuse an earlier run's results: mutmut tests the "
+                    "mutants of changed functions, then every earlier survivor again; default: start afresh")
     ap.add_argument("--list-tests", action="store_true", help="print the test files of each module and stop")
     a = ap.parse_args()
     unknown = [m for m in a.modules if m not in MODULES]
