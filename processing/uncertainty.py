@@ -84,7 +84,12 @@ class UncertaintyInputs:
                              f"(known: {', '.join(sorted(known))})")
         vals = {}
         for k, v in d.items():
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+            try:
+                bad = isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0
+            except OverflowError:  # an int beyond a float's range (JSON digits): not a ValueError by itself
+                raise ValueError(f"setup.uncertainty.{k} is too large a number ({len(str(abs(v)))} digits); "
+                                 "give it in its unit (um, urad or mm)") from None
+            if bad:
                 raise ValueError(f"setup.uncertainty.{k} must be a non-negative number, got {v!r}")
             vals[k] = float(v)
         return UncertaintyInputs(**vals)

@@ -319,3 +319,13 @@ def test_progress_of_a_one_point_run() -> None:
                       lines=(), chunk_elements=2, progress=lambda done, total: seen.append((done, total)))
     assert seen == [(2, 4), (4, 4)]
     np.testing.assert_array_equal(res.per_station_std_um, [0.0])  # the datum is its own reference
+
+
+def test_from_dict_refuses_an_integer_beyond_float_range_as_a_value_error() -> None:
+    """run.json may hold 1e400 written out as digits: json gives an int that float() cannot hold.
+    The caller turns ValueError into a one-line data error; an OverflowError would be a traceback."""
+    for big in (10**400, -(10**400)):
+        with pytest.raises(ValueError, match=r"^setup\.uncertainty\.offset_mm is too large a number \(401 digits\); "
+                                             r"give it in its unit \(um, urad or mm\)$"):
+            UncertaintyInputs.from_dict({"offset_mm": big})
+    assert UncertaintyInputs.from_dict({"offset_mm": 10**300}).offset_mm == 1e300  # an int within range
