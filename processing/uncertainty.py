@@ -228,8 +228,8 @@ MC_CHUNK_ELEMENTS = 250_000
 def mc_streams(seed: int) -> dict[str, np.random.Generator]:
     """The independent random streams of the Monte Carlo (one per input, :data:`MC_STREAMS`) of ``seed``."""
     children = np.random.SeedSequence(seed).spawn(len(MC_STREAMS))
-    return {name: np.random.default_rng(child)
-            for name, child in zip(MC_STREAMS, children, strict=True)}  # pragma: no mutate (equivalent: same lengths)
+    pairs = zip(MC_STREAMS, children, strict=True)  # pragma: no mutate (equivalent: the lengths are equal)
+    return {name: np.random.default_rng(child) for name, child in pairs}
 
 
 def mc_trial_heights(ch: Channels, setup: Setup, method: str, inputs: UncertaintyInputs, groups: StationGroups,
