@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .geometry import DATUM_AXES, BlockGeometry
+from .point_columns import Points, as_columns, row_count
 
 if TYPE_CHECKING:  # the live display decouples rows without pandas; whole runs bring it
     import pandas as pd
@@ -71,17 +72,19 @@ class Channels:
     first_step: int | None = None
 
     @staticmethod
-    def from_points(points: pd.DataFrame) -> Channels:
-        return Channels(**{f: points[f].to_numpy(dtype=float) for f in CHANNEL_COLUMNS},
-                        first_step=first_step_index(points))
+    def from_points(points: Points) -> Channels:
+        cols = as_columns(points)
+        return Channels(**{f: np.asarray(cols[f], dtype=float) for f in CHANNEL_COLUMNS},
+                        first_step=first_step_index(cols))
 
 
-def first_step_index(points: pd.DataFrame) -> int | None:
+def first_step_index(points: Points) -> int | None:
     """Row index of the first step: the forward-pass point at the datum's station + 1 (None if absent)."""
-    if len(points) == 0:
+    cols = as_columns(points)
+    if row_count(cols) == 0:
         return None
-    st = points["station"].to_numpy(dtype=int)
-    fwd = points["pass"].to_numpy(dtype=int) == 0 if "pass" in points else np.ones(len(st), dtype=bool)
+    st = np.asarray(cols["station"], dtype=int)
+    fwd = np.asarray(cols["pass"], dtype=int) == 0 if "pass" in cols else np.ones(len(st), dtype=bool)
     hits = np.flatnonzero(fwd & (st == st[0] + 1))
     return int(hits[0]) if hits.size else None
 
@@ -264,7 +267,7 @@ def check_method(method: str) -> None:
         raise ValueError(f"unknown decoupling method {method!r}; choose one of {', '.join(METHODS)}")
 
 
-def decouple(points: pd.DataFrame, geometry: BlockGeometry, method: str = DEFAULT_METHOD) -> pd.DataFrame:
+def decouple(points: Points, geometry: BlockGeometry, method: str = DEFAULT_METHOD) -> pd.DataFrame:
     """Per-point profile (station, x_mm, height_um) by ``method``; the first row is the datum."""
     return decouple_run(points, geometry, method).profile
 
@@ -295,38 +298,43 @@ def datum_angles_of(ch: Channels, setup: Setup) -> DatumAnglesUsed:
     return DatumAnglesUsed(*used, source=source)
 
 
-def datum_angles_used(points: pd.DataFrame, geometry: BlockGeometry) -> DatumAnglesUsed:
+def datum_angles_used(points: Points, geometry: BlockGeometry) -> DatumAnglesUsed:
     """What :func:`exact_arrays` takes for the datum angles of this run."""
     return datum_angles_of(Channels.from_points(points), Setup.from_geometry(geometry))
 
 
 @dataclass(frozen=True)
 class Decoupled:
-    """A decoupled run: the per-point profile (station, x_mm, height_um; the first row is the
-    datum), the channels it came from and, for ``exact``, the datum angles it used."""
+    """A decoupled run: the per-point profile (``columns`` station, x_mm, height_um; the first row is
+    the datum; ``profile``: the same as a DataFrame, pandas imported on first use), the channels it came
+    from and, for ``exact``, the datum angles it used."""
 
-    profile: pd.DataFrame
+    columns: dict[str, np.ndarray]
     channels: Channels
     datum: DatumAnglesUsed | None
 
+    @property
+    def profile(self) -> pd.DataFrame:
+        import pandas as pd
 
-def decouple_run(points: pd.DataFrame, geometry: BlockGeometry, method: str = DEFAULT_METHOD) -> Decoupled:
+        return pd.DataFrame(self.columns)
+
+
+def decouple_run(points: Points, geometry: BlockGeometry, method: str = DEFAULT_METHOD) -> Decoupled:
     """Decouple every point by ``method`` (see :func:`decouple`), keeping what the result reports."""
     check_method(method)
-    if len(points) == 0:
+    cols = as_columns(points)
+    if row_count(cols) == 0:
         raise ValueError("no points to process")
-    ch, setup = Channels.from_points(points), Setup.from_geometry(geometry)
+    ch, setup = Channels.from_points(cols), Setup.from_geometry(geometry)
     datum = None
     if method == "exact":
         datum = datum_angles_of(ch, setup)
         setup = replace(setup, datum_urad=(datum.roll_urad, datum.yaw_urad, datum.pitch_urad))  # estimated once
     x, h = DECOUPLERS[method](ch, setup)
-    import pandas as pd
-
-    profile = pd.DataFrame({"station": points["station"].to_numpy(dtype=int), "x_mm": x, "height_um": h})
-    return Decoupled(profile, ch, datum)
+    return Decoupled({"station": np.asarray(cols["station"], dtype=int), "x_mm": x, "height_um": h}, ch, datum)
 
 
-def decouple_first_order(points: pd.DataFrame, geometry: BlockGeometry) -> pd.DataFrame:
+def decouple_first_order(points: Points, geometry: BlockGeometry) -> pd.DataFrame:
     """Profile (station, x_mm, height_um) by the first-order formula; x_mm = nominal travel."""
     return decouple(points, geometry, "first-order")

@@ -6,14 +6,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from .decoupling import DEFAULT_METHOD, METHODS, DatumAnglesUsed, check_method, decouple_run
 from .geometry import BlockGeometry
 from .passes import ReturnPassSummary, check_order, return_pass_summary, station_groups
+from .point_columns import Points, as_columns
 from .reference_lines import LineFit, endpoint_line, least_squares_line, minimum_zone_line
 from .uncertainty import (
     K,
@@ -25,6 +26,9 @@ from .uncertainty import (
     profile_slope,
 )
 from .wavelength import Peak, dominant_wavelengths
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["METHODS", "StraightnessResult", "Uncertainty", "evaluate_straightness"]
 
@@ -58,16 +62,23 @@ class Uncertainty:
 
 @dataclass(frozen=True)
 class StraightnessResult:
-    """Profile (station, x_mm, height_um) plus everything evaluated from it."""
+    """Profile (``profile_columns`` station, x_mm, height_um; ``profile``: the same as a DataFrame,
+    pandas imported on first use) plus everything evaluated from it."""
 
     method: str
-    profile: pd.DataFrame
+    profile_columns: dict[str, np.ndarray]
     lines: dict[str, LineFit] = field(default_factory=dict)
     uncertainty: Uncertainty | None = None
     wavelengths: list[Peak] = field(default_factory=list)
     return_pass: ReturnPassSummary | None = None
     datum: DatumAnglesUsed | None = None  # exact method: the datum block's angles in the laser frame
     datum_pitch_u_urad: float | None = None  # u of an estimated datum pitch (with uncertainty inputs)
+
+    @cached_property
+    def profile(self) -> pd.DataFrame:
+        import pandas as pd
+
+        return pd.DataFrame(self.profile_columns)
 
     def straightness_um(self) -> dict[str, float]:
         return {name: fit.straightness_um for name, fit in self.lines.items()}
@@ -78,8 +89,9 @@ class StraightnessResult:
             "kind": "straightness",
             "method": self.method,
             "profile": [
-                {"station": int(r.station), "x_mm": float(r.x_mm), "height_um": float(r.height_um)}
-                for r in self.profile.itertuples(index=False)
+                {"station": int(k), "x_mm": float(x), "height_um": float(h)}
+                for k, x, h in zip(*(self.profile_columns[c] for c in ("station", "x_mm", "height_um")),
+                                   strict=True)
             ],
             "straightness_um": self.straightness_um(),
             "reference_lines": {name: {"slope_um_per_mm": f.slope_um_per_mm, "intercept_um": f.intercept_um}
@@ -102,7 +114,7 @@ class StraightnessResult:
 
 
 def evaluate_straightness(
-    points: pd.DataFrame,
+    points: Points,
     geometry: BlockGeometry,
     *,
     method: str = DEFAULT_METHOD,
@@ -116,15 +128,16 @@ def evaluate_straightness(
     given, the GUM per-station and (``mc_trials`` > 0) Monte Carlo uncertainties
     (``mc_progress(done, trials)`` after each chunk of trials)."""
     check_method(method)
+    points = as_columns(points)
     check_order(points)
     dec = decouple_run(points, geometry, method)
-    per_point = dec.profile
+    per_point = dec.columns
     groups = station_groups(points)
-    x = groups.average(per_point["x_mm"].to_numpy())
-    h = groups.average(per_point["height_um"].to_numpy())
-    profile = pd.DataFrame({"station": groups.stations, "x_mm": x, "height_um": h})
+    x = groups.average(per_point["x_mm"])
+    h = groups.average(per_point["height_um"])
+    profile = {"station": groups.stations, "x_mm": x, "height_um": h}
     lines: dict[str, LineFit] = {}
-    if len(profile) >= 2:
+    if len(x) >= 2:
         lines = {"endpoint": endpoint_line(x, h), "least_squares": least_squares_line(x, h),
                  "minimum_zone": minimum_zone_line(x, h)}
     unc = None
@@ -135,7 +148,7 @@ def evaluate_straightness(
                           seed=mc_seed, lines=tuple(lines), progress=mc_progress) if mc_trials > 0 and lines else None)
         unc = Uncertainty(uncertainty, u, mc)
     return StraightnessResult(
-        method=method, profile=profile, lines=lines, uncertainty=unc,
+        method=method, profile_columns=profile, lines=lines, uncertainty=unc,
         wavelengths=dominant_wavelengths(x, h) if np.all(np.diff(x) > 0) else [],
         return_pass=return_pass_summary(points, per_point),
         datum=dec.datum,

@@ -49,11 +49,11 @@ from dataclasses import asdict, dataclass, fields
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from .decoupling import DECOUPLERS, Channels, Setup
 from .geometry import BlockGeometry
 from .passes import StationGroups
+from .point_columns import Points, as_columns, row_count
 from .reference_lines import minimum_zone_many
 
 K = 2.0
@@ -159,10 +159,11 @@ def datum_pitch_u_urad(ch: Channels, geometry: BlockGeometry, inputs: Uncertaint
     return math.sqrt(var_um2) / abs(step_mm) * 1e3 if step_mm else None
 
 
-def gum_per_station(points: pd.DataFrame, geometry: BlockGeometry, method: str, inputs: UncertaintyInputs,
+def gum_per_station(points: Points, geometry: BlockGeometry, method: str, inputs: UncertaintyInputs,
                     groups: StationGroups, slope_um_per_mm: np.ndarray) -> np.ndarray:
     """Combined standard uncertainty u (um, k = 1) of each output station's height."""
-    n = len(points)
+    points = as_columns(points)
+    n = row_count(points)
     xp, _, zp = geometry.mirror_mm
     xq, _, zq = geometry.sensor_mm
     ones = np.ones(n)
@@ -171,8 +172,8 @@ def gum_per_station(points: pd.DataFrame, geometry: BlockGeometry, method: str, 
     var += _sum_sq(groups, ref, ones) * inputs.straightness_um**2
     var += _sum_sq(groups, ref, ones * (xq - xp) * 1e-3) * inputs.angle_urad**2
     var += _sum_sq(groups, ref, ones * (zq - zp) * 1e-3) * inputs.angle_urad**2
-    ez = points["pitch_urad"].to_numpy(dtype=float) * 1e-3  # um per mm of offset
-    ex = points["roll_urad"].to_numpy(dtype=float) * 1e-3
+    ez = np.asarray(points["pitch_urad"], dtype=float) * 1e-3  # um per mm of offset
+    ex = np.asarray(points["roll_urad"], dtype=float) * 1e-3
     var += 2 * _sum(groups, ref, ez) ** 2 * inputs.offset_mm**2  # xQ and xP
     var += 2 * _sum(groups, ref, ex) ** 2 * inputs.offset_mm**2  # zQ and zP
     var += slope_um_per_mm**2 * _sum_sq(groups, 1.0, ones) * (inputs.x_um(method) * 1e-3) ** 2
@@ -259,7 +260,7 @@ def mc_trial_heights(ch: Channels, setup: Setup, method: str, inputs: Uncertaint
     return groups.average(h) + slope_um_per_mm * groups.average(dx)
 
 
-def monte_carlo(points: pd.DataFrame, geometry: BlockGeometry, method: str, inputs: UncertaintyInputs,
+def monte_carlo(points: Points, geometry: BlockGeometry, method: str, inputs: UncertaintyInputs,
                 groups: StationGroups, x_out: np.ndarray, slope_um_per_mm: np.ndarray, *,
                 trials: int = 10_000, seed: int = 0,
                 lines: tuple[str, ...] = ("endpoint", "least_squares", "minimum_zone"),
@@ -281,7 +282,7 @@ def monte_carlo(points: pd.DataFrame, geometry: BlockGeometry, method: str, inpu
     streams = mc_streams(seed)
     ch = Channels.from_points(points)
     setup = Setup.from_geometry(geometry)
-    m_chunk = max(1, chunk_elements // max(len(points), 1))
+    m_chunk = max(1, chunk_elements // max(len(ch.x_mm), 1))
     per_line = {name: np.empty(trials) for name in lines}
     shift: np.ndarray | None = None
     s1 = s2 = np.zeros(len(x_out))

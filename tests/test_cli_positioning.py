@@ -34,7 +34,7 @@ def test_import_then_process_json(tmp_path: Path) -> None:
                    "--expansion-ppm-per-k", "11.5", "--wavelength-nm", "633")
     assert res.returncode == 0, res.stderr
     assert "imported 8 point(s)" in res.stdout
-    res = guideway("process", str(out), "--json")
+    res = guideway("process", str(out), "--json", "--plot")
     assert res.returncode == 0, res.stderr
     obj = json.loads(res.stdout)
     assert obj["kind"] == "positioning" and obj["axis_type"] == "linear" and obj["unit"] == "um"

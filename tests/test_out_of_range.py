@@ -47,7 +47,7 @@ def test_accepted_values_are_listed_and_marked(tmp_path: Path) -> None:
     run = straightness_run(tmp_path, 5, "sensor_mm", "1e9")
     old = os.umask(0o027)
     try:
-        res = guideway("process", run, "--json", "--mc-trials", "0", "--accept-out-of-range")
+        res = guideway("process", run, "--json", "--mc-trials", "0", "--accept-out-of-range", "--plot")
         assert res.returncode == 0, res.stderr
         assert json.loads(res.stdout)["out_of_range_accepted"] == [
             {"where": "station 5", "column": "sensor_mm", "value": 1e9, "limit": "[-50, 50] mm"}]

@@ -13,21 +13,31 @@ from typing import Any, Protocol, TextIO
 
 from ..errors import RunFormatError, UserError
 from ..store.reader import LoadedRun, load_run
-from .positioning import evaluate_positioning_run
-from .straightness import evaluate_straightness_run
 
 
 class Evaluation(Protocol):
     def to_dict(self) -> dict[str, Any]: ...
 
-    def write(self, results_dir: Path) -> Path: ...
+    def write(self, results_dir: Path, *, plot: bool = True) -> Path: ...
 
     def print_summary(self, stream: TextIO) -> None: ...
 
 
+def _straightness(run: LoadedRun, **options: Any) -> Evaluation:
+    from .straightness import evaluate_straightness_run
+
+    return evaluate_straightness_run(run, **options)
+
+
+def _positioning(run: LoadedRun, **options: Any) -> Evaluation:
+    from .positioning import evaluate_positioning_run  # pandas and the ISO 230-2 code: only for these runs
+
+    return evaluate_positioning_run(run, **options)
+
+
 EVALUATORS: dict[str, Callable[..., Evaluation]] = {
-    "straightness": evaluate_straightness_run,
-    "positioning": evaluate_positioning_run,
+    "straightness": _straightness,
+    "positioning": _positioning,
 }
 
 

@@ -115,15 +115,15 @@ def _outside(values: np.ndarray, lo: float, hi: float) -> np.ndarray:
 
 
 def straightness_out_of_range(run: LoadedRun) -> list[OutOfRange]:
-    pts = run.points
+    pts = run.columns
     found = []
     for col, (lo, hi, unit) in straightness_bounds(_validation(run)).items():
         if col not in pts:
             continue
-        values = pts[col].to_numpy(dtype=float)
+        values = np.asarray(pts[col], dtype=float)
         for i in _outside(values, lo, hi):
-            row = pts.iloc[int(i)]
-            where = f"station {int(row['station'])}" + (" (return pass)" if int(row.get("pass", 0)) else "")
+            where = f"station {int(pts['station'][i])}" + (" (return pass)" if "pass" in pts and int(pts["pass"][i])
+                                                          else "")
             found.append(OutOfRange(where, col, float(values[i]), f"[{lo:g}, {hi:g}] {unit}"))
     return found
 

@@ -63,10 +63,11 @@ class PositioningEvaluation:
             **out_of_range_dict(self.out_of_range),
         }
 
-    def write(self, results_dir: Path) -> Path:
+    def write(self, results_dir: Path, *, plot: bool = True) -> Path:
+        """results/ as one set; positioning.png only with ``plot``."""
         from ..results.positioning import write_positioning_results  # matplotlib only when writing
 
-        return write_positioning_results(results_dir, self.result, self.deviations, self.to_dict())
+        return write_positioning_results(results_dir, self.result, self.deviations, self.to_dict(), plot=plot)
 
     def print_summary(self, stream: TextIO) -> None:
         r = self.result

@@ -39,16 +39,17 @@ class StraightnessEvaluation:
         return {**self.result.to_dict(), **verdict_dict(self.verdict), **out_of_range_dict(self.out_of_range),
                 **missing}
 
-    def write(self, results_dir: Path) -> Path:
-        from ..results.straightness import write_straightness_results  # matplotlib only when writing
+    def write(self, results_dir: Path, *, plot: bool = True) -> Path:
+        """results/ as one set; profile.png only with ``plot`` (matplotlib only then)."""
+        from ..results.straightness import write_straightness_results
 
         # summary.json is this object, verdict included (the catalogue reads the verdict from it)
-        return write_straightness_results(results_dir, self.result, self.to_dict())
+        return write_straightness_results(results_dir, self.result, self.to_dict(), plot=plot)
 
     def print_summary(self, stream: TextIO) -> None:
         r = self.result
-        n = len(r.profile)
-        span = float(r.profile["x_mm"].iloc[-1]) if n else 0.0
+        n = len(r.profile_columns["x_mm"])
+        span = float(r.profile_columns["x_mm"][-1]) if n else 0.0
         print_out_of_range(self.out_of_range, stream)
         if self.gaps:
             print(f"warning: {self.run.path}/points.csv: {gap_text(list(self.gaps))}; the profile spans the "
@@ -104,12 +105,14 @@ METHOD_COLUMNS: dict[str, tuple[str, ...]] = {
 
 def check_finite(run: LoadedRun, method: str) -> None:
     """A one-line error naming the first point and channel that holds no finite value."""
+    pts = run.columns
     for col in METHOD_COLUMNS.get(method, ()):
-        values = run.points[col].to_numpy(dtype=float)
+        values = np.asarray(pts[col], dtype=float)
         bad = np.flatnonzero(~np.isfinite(values))
         if bad.size:
-            row = run.points.iloc[int(bad[0])]
-            where = f"station {int(row['station'])}" + (" (return pass)" if int(row.get("pass", 0)) else "")
+            i = int(bad[0])
+            where = f"station {int(pts['station'][i])}" + (" (return pass)" if "pass" in pts and int(pts["pass"][i])
+                                                          else "")
             raise RunFormatError(
                 f"{run.path}/points.csv: {where} has {col} = {values[bad[0]]} ({bad.size} such value(s)); "
                 f"the {method} decoupling needs it - redo that station or remove its row"
@@ -141,8 +144,8 @@ def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, m
     geometry = run_geometry(run)
     plan = check_straightness_points(run)
     gaps = straightness_gaps(run, plan)
-    if len(run.points) < 2:
-        raise RunFormatError(f"{run.path}: {len(run.points)} point(s) recorded; need at least 2 to evaluate")
+    if run.n_points < 2:
+        raise RunFormatError(f"{run.path}: {run.n_points} point(s) recorded; need at least 2 to evaluate")
     try:
         inputs = UncertaintyInputs.from_dict(run.meta["setup"].get("uncertainty"))
     except ValueError as exc:
@@ -150,9 +153,9 @@ def evaluate_straightness_run(run: LoadedRun, *, method: str = DEFAULT_METHOD, m
     accepted = out_of_range(run, accept=accept_out_of_range)
     check_finite(run, method)
     if mc_trials is None:
-        mc_trials = default_mc_trials(len(run.points))
+        mc_trials = default_mc_trials(run.n_points)
     try:
-        result = evaluate_straightness(run.points, geometry, method=method, uncertainty=inputs,
+        result = evaluate_straightness(run.columns, geometry, method=method, uncertainty=inputs,
                                        mc_trials=mc_trials, mc_seed=mc_seed, mc_progress=progress)
     except ValueError as exc:
         raise RunFormatError(f"{run.path}: {exc}") from exc

@@ -29,14 +29,15 @@ if TYPE_CHECKING:
 
 
 def write_positioning_results(results_dir: Path, result: Iso2302Result, deviations: pd.DataFrame,
-                              summary: dict[str, Any]) -> Path:
+                              summary: dict[str, Any], *, plot: bool = True) -> Path:
     """Write the per-target table (positioning.csv, target in mm or deg, values in µm or
-    arcsec as the column names say), ``summary`` as summary.json and positioning.png as one set (a
-    kill leaves the old set or the new one, .result_set); return the directory."""
-    return write_result_set(results_dir, lambda out: _write_files(out, result, deviations, summary))
+    arcsec as the column names say), ``summary`` as summary.json and (``plot``) positioning.png as one
+    set (a kill leaves the old set or the new one, .result_set); return the directory."""
+    return write_result_set(results_dir, lambda out: _write_files(out, result, deviations, summary, plot))
 
 
-def _write_files(out: Path, result: Iso2302Result, deviations: pd.DataFrame, summary: dict[str, Any]) -> None:
+def _write_files(out: Path, result: Iso2302Result, deviations: pd.DataFrame, summary: dict[str, Any],
+                 plot: bool) -> None:
     r = result
     table = r.per_target.rename(columns={
         "target": f"target_{r.target_unit}",
@@ -45,7 +46,8 @@ def _write_files(out: Path, result: Iso2302Result, deviations: pd.DataFrame, sum
     })
     write_text_atomic(out / "positioning.csv", table.to_csv(index=False, float_format="%.6f"))
     write_json_atomic(out / "summary.json", summary)
-    plot_positioning(result, deviations, out / "positioning.png")
+    if plot:
+        plot_positioning(result, deviations, out / "positioning.png")
 
 
 def plot_positioning(result: Iso2302Result, deviations: pd.DataFrame, path: Path) -> None:

@@ -16,7 +16,6 @@ from __future__ import annotations
 import ctypes
 import errno
 import os
-import secrets
 import shutil
 import stat
 from collections.abc import Callable
@@ -91,7 +90,7 @@ def write_result_set(results_dir: Path | str, write: Callable[[Path], None]) -> 
         raise _refuse_link(results)
     remove_stale_temps(run_dir)
     remove_stale_temps(results)
-    tmp = run_dir / f".{results.name}.{os.getpid()}-{secrets.token_hex(4)}.tmpdir"
+    tmp = run_dir / f".{results.name}.{os.getpid()}-{os.urandom(4).hex()}.tmpdir"
     try:
         tmp.mkdir()
     except OSError as exc:
@@ -120,7 +119,7 @@ def write_result_set(results_dir: Path | str, write: Callable[[Path], None]) -> 
             fsync_dir(tmp)
             if results.is_dir():
                 if not _exchange(tmp, results):
-                    old = run_dir / f".{results.name}.{os.getpid()}-{secrets.token_hex(4)}.tmpdir"
+                    old = run_dir / f".{results.name}.{os.getpid()}-{os.urandom(4).hex()}.tmpdir"
                     os.rename(results, old)
                     os.rename(tmp, results)
                     tmp = old

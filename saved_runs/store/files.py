@@ -15,7 +15,6 @@ import errno
 import json
 import os
 import re
-import secrets
 import stat
 from collections.abc import Callable
 from pathlib import Path
@@ -131,7 +130,7 @@ def _create_temp_at(dir_fd: int, name: str) -> tuple[int, str]:
     advance (a link to another file) is never opened, another name is drawn."""
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | _CLOEXEC
     for _ in range(100):
-        tmp = f".{name}.{os.getpid()}-{secrets.token_hex(4)}.tmp"
+        tmp = f".{name}.{os.getpid()}-{os.urandom(4).hex()}.tmp"
         try:
             return os.open(tmp, flags, 0o666, dir_fd=dir_fd), tmp
         except FileExistsError:

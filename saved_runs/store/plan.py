@@ -94,8 +94,8 @@ def check_straightness_points(run: LoadedRun) -> StraightnessPlan:
     _check_skipped(run)
     csv_path = f"{run.path}/points.csv"
     seen: dict[tuple[int, int], int] = {}
-    pts = run.points
-    passes = pts["pass"].tolist() if "pass" in pts else [0] * len(pts)
+    pts = run.columns
+    passes = pts["pass"].tolist() if "pass" in pts else [0] * run.n_points
     for i, (k, p, x) in enumerate(zip(pts["station"].tolist(), passes, pts["x_mm"].tolist(), strict=True)):
         line = _line(i)
         if plan.stations is not None and not 0 <= k < plan.stations:
@@ -121,8 +121,8 @@ def check_straightness_points(run: LoadedRun) -> StraightnessPlan:
 
 def straightness_gaps(run: LoadedRun, plan: StraightnessPlan) -> list[tuple[int, int]]:
     """The planned (pass, station) steps with no point on disk and no ``skipped`` record, in plan order."""
-    pts = run.points
-    passes = pts["pass"].tolist() if "pass" in pts else [0] * len(pts)
+    pts = run.columns
+    passes = pts["pass"].tolist() if "pass" in pts else [0] * run.n_points
     done = set(zip(passes, pts["station"].tolist(), strict=True))
     for s in run.meta.get("skipped") or []:
         if isinstance(s, dict) and isinstance(s.get("station"), int):
@@ -151,7 +151,7 @@ def check_positioning_points(run: LoadedRun) -> None:
         raise RunFormatError(f"{run.path}/run.json: setup.targets_{unit} must be a list of numbers; "
                              "fix or restore run.json")
     runs = _positive_int(f"{run.path}/run.json", "runs", setup["runs"]) if "runs" in setup else None
-    pts = run.points
+    pts = run.columns
     seen: dict[tuple[int, int, int], int] = {}
     cols = zip(pts["run"].tolist(), pts["direction"].tolist(), pts["target_index"].tolist(),
                pts[f"target_{unit}"].tolist(), strict=True)

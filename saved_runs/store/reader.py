@@ -1,5 +1,5 @@
 """Reading a run directory: :func:`load_run` validates run.json and points.csv of any supported
-format version and returns the metadata and the points as a DataFrame, or raises
+format version and returns the metadata and the points (numpy columns; a DataFrame on demand), or raises
 :class:`~saved_runs.errors.RunFormatError` with a one-line reason.  A partial last line of
 points.csv (a kill in the middle of a write) is ignored with a warning."""
 
@@ -8,7 +8,9 @@ from __future__ import annotations
 import csv
 import json
 from array import array
+from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -20,22 +22,38 @@ from ..errors import RunFormatError
 from .files import read_run_file
 from .format import FORMAT, KINDS, SUPPORTED_VERSIONS, point_columns
 
-if TYPE_CHECKING:  # pandas when points are read, not when the set-up loaders import LoadedRun
+if TYPE_CHECKING:  # pandas only when a reader asks for the DataFrame (``process`` of a straightness run does not)
     import pandas as pd
+
+INTEGER_COLUMNS = ("station", "run", "direction", "target_index", "pass", "not_still")
 
 
 @dataclass(frozen=True)
 class LoadedRun:
-    """A run directory read back: run.json and the points."""
+    """A run directory read back: run.json and the points.
+
+    ``columns``: points.csv column name -> read-only 1-D array (float64; int64 for the integer columns), in
+    file order, absent optional columns appended with their default; ``points``: the same as a DataFrame,
+    built (and pandas imported) on first use."""
 
     path: Path
     meta: dict[str, Any]
-    points: pd.DataFrame
+    columns: Mapping[str, np.ndarray]
     warnings: tuple[str, ...] = ()
 
     @property
     def kind(self) -> str:
         return str(self.meta["kind"])
+
+    @cached_property
+    def points(self) -> pd.DataFrame:
+        import pandas as pd
+
+        return pd.DataFrame({c: v.copy() for c, v in self.columns.items()}, columns=list(self.columns))
+
+    @property
+    def n_points(self) -> int:
+        return len(next(iter(self.columns.values()), ()))
 
 
 def load_run(run_dir: Path | str) -> LoadedRun:
@@ -93,7 +111,7 @@ def _check_meta_types(meta: dict[str, Any], meta_path: Path) -> None:
             raise RunFormatError(f"{meta_path}: instruments.{role} must be an object, got {info!r:.40}")
 
 
-def _read_points(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame, list[str]]:
+def _read_points(path: Path, columns: tuple[str, ...]) -> tuple[dict[str, np.ndarray], list[str]]:
     try:
         # (universal newlines, as read_text gave: a points.csv saved with CRLF reads the same)
         text = read_run_file(path).decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")
@@ -133,16 +151,18 @@ def _read_points(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame, li
                 data[c].append(float(row[i]))
             except ValueError:
                 raise RunFormatError(f"{path}:{lineno}: column {c} is not a number: {row[i]!r}") from None
-    import pandas as pd
-
-    df = pd.DataFrame({c: np.frombuffer(data[c], dtype=float) for c in columns}, columns=list(columns))
+    n = len(data[columns[0]]) if columns else 0
+    cols: dict[str, np.ndarray] = {c: np.frombuffer(data[c], dtype=float) for c in columns}
     for c, v in defaults.items():
-        df[c] = v
-    for col in ("station", "run", "direction", "target_index", "pass", "not_still"):
-        if col in df:
-            if not all(float(v).is_integer() for v in df[col]):
+        cols[c] = np.full(n, v, dtype=np.asarray(v).dtype)
+    for col in INTEGER_COLUMNS:
+        if col in cols and cols[col].dtype.kind == "f":
+            a = cols[col]
+            if not np.all(np.isfinite(a) & (a == np.floor(a))):
                 raise RunFormatError(f"{path}: column {col} must hold integers")
-            df[col] = df[col].astype(int)
-    if "not_still" in df and not df["not_still"].isin((0, 1)).all():
+            cols[col] = a.astype(np.int64)
+    if "not_still" in cols and not np.isin(cols["not_still"], (0, 1)).all():
         raise RunFormatError(f"{path}: column not_still must be 0 or 1")
-    return df, warnings
+    for v in cols.values():
+        v.flags.writeable = False  # shared by every reader of the run: nobody changes the points read
+    return cols, warnings

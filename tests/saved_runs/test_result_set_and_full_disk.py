@@ -40,7 +40,7 @@ def reference_sets(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict
     run = simulated_run(base / "run")
     sets = {}
     for method in ("exact", "patent"):
-        assert guideway("process", run, "--method", method, "--mc-trials", "50").returncode == 0
+        assert guideway("process", run, "--method", method, "--mc-trials", "50", "--plot").returncode == 0
         sets[method] = set_bytes(run)
     assert sets["exact"]["profile.csv"] != sets["patent"]["profile.csv"]
     assert sets["exact"]["profile.png"] != sets["patent"]["profile.png"]
@@ -55,7 +55,7 @@ def test_a_crash_in_the_middle_of_the_set_leaves_the_old_set(reference_sets, tmp
     src, sets = reference_sets
     run = tmp_path / "run"
     shutil.copytree(src, run)
-    assert guideway("process", run, "--method", "exact", "--mc-trials", "50").returncode == 0
+    assert guideway("process", run, "--method", "exact", "--mc-trials", "50", "--plot").returncode == 0
     (run / "results" / "report.html").write_text("<p>a report</p>")  # another command's file stays
     written = []
 
@@ -65,13 +65,13 @@ def test_a_crash_in_the_middle_of_the_set_leaves_the_old_set(reference_sets, tmp
 
     monkeypatch.setattr(straightness, "plot_profile", crash)
     with pytest.raises(RuntimeError):
-        guideway("process", run, "--method", "patent", "--mc-trials", "50")
+        guideway("process", run, "--method", "patent", "--mc-trials", "50", "--plot")
     assert "profile.csv" in written and "summary.json" in written  # the crash came mid-set
     assert set_bytes(run) == sets["exact"]
     assert (run / "results" / "report.html").read_text() == "<p>a report</p>"
     assert leftovers(run) == []
     monkeypatch.undo()
-    assert guideway("process", run, "--method", "patent", "--mc-trials", "50").returncode == 0
+    assert guideway("process", run, "--method", "patent", "--mc-trials", "50", "--plot").returncode == 0
     assert set_bytes(run) == sets["patent"]
     assert (run / "results" / "report.html").read_text() == "<p>a report</p>"
 
@@ -92,9 +92,9 @@ def test_kill_9_during_process_never_leaves_a_mixed_set(reference_sets, tmp_path
         run = tmp_path / f"run{trial}"
         shutil.copytree(src, run)
         old = "patent"
-        assert guideway("process", run, "--method", old, "--mc-trials", "50").returncode == 0
+        assert guideway("process", run, "--method", old, "--mc-trials", "50", "--plot").returncode == 0
         before = {(p.name, p.stat().st_mtime_ns) for d in (run, run / "results") for p in d.iterdir()}
-        proc = subprocess.Popen([sys.executable, "-m", "tui.cli", "process", str(run), "--method", "exact",
+        proc = subprocess.Popen([sys.executable, "-m", "tui.cli", "process", str(run), "--method", "exact", "--plot",
                                  "--mc-trials", "50"], cwd=ROOT, stdout=subprocess.DEVNULL,
                                 stderr=subprocess.DEVNULL)
         try:
@@ -115,7 +115,7 @@ def test_kill_9_during_process_never_leaves_a_mixed_set(reference_sets, tmp_path
         hit_while_writing += was_running and bool(leftovers(run))
         got = set_bytes(run)
         assert got in (sets["exact"], sets[old]), f"trial {trial}: a mixed set"
-        assert guideway("process", run, "--method", "exact", "--mc-trials", "50").returncode == 0
+        assert guideway("process", run, "--method", "exact", "--mc-trials", "50", "--plot").returncode == 0
         assert set_bytes(run) == sets["exact"]
         assert leftovers(run) == [], "stale temporary files not cleaned"
     assert hit_while_writing >= 1, "no kill landed while the set was being written"
@@ -129,7 +129,7 @@ def test_a_full_disk_while_writing_results_names_the_file(reference_sets, tmp_pa
     src, sets = reference_sets
     run = tmp_path / "run"
     shutil.copytree(src, run)
-    assert guideway("process", run, "--method", "patent", "--mc-trials", "50").returncode == 0
+    assert guideway("process", run, "--method", "patent", "--mc-trials", "50", "--plot").returncode == 0
     real_fsync = os.fsync
 
     def full(fd: int) -> None:
@@ -138,7 +138,7 @@ def test_a_full_disk_while_writing_results_names_the_file(reference_sets, tmp_pa
         real_fsync(fd)
 
     monkeypatch.setattr(files.os, "fsync", full)
-    line = one_line_error(guideway("process", run, "--method", "exact", "--mc-trials", "50"),
+    line = one_line_error(guideway("process", run, "--method", "exact", "--mc-trials", "50", "--plot"),
                           "No space left on device", "disk is full")
     assert str(run / "results" / "profile.csv") in line
     monkeypatch.undo()
@@ -193,7 +193,7 @@ def test_a_real_full_tmpfs(reference_sets, tmp_path: Path) -> None:  # noqa: ANN
         run.mkdir()
         for name in ("run.json", "points.csv"):
             shutil.copy(src / name, run / name)
-        line = one_line_error(guideway("process", run, "--mc-trials", "50"), "No space left on device",
+        line = one_line_error(guideway("process", run, "--mc-trials", "50", "--plot"), "No space left on device",
                               str(run / "results"))
         assert leftovers(run) == [] and not (run / "results").exists()
     finally:

@@ -24,7 +24,7 @@ def run(args: argparse.Namespace) -> int:
         warn_about_run(run_, "processing the")
         if not args.no_write:
             stages.stage("writing results")
-            result.write(run_.path / "results")
+            result.write(run_.path / "results", plot=args.plot)
     if args.json:
         json.dump(result.to_dict(), sys.stdout, allow_nan=False)
         sys.stdout.write("\n")
@@ -42,7 +42,7 @@ def warn_about_run(run_: Any, doing: str) -> None:
         print(f"guideway: warning: {w}", file=sys.stderr)
     if run_.meta.get("status") != "complete":
         print(f"guideway: warning: run status is {run_.meta.get('status')!r}; {doing} "
-              f"{len(run_.points)} point(s) recorded", file=sys.stderr)
+              f"{run_.n_points} point(s) recorded", file=sys.stderr)
 
 
 def evaluator_options(args: argparse.Namespace) -> dict[str, object]:
@@ -99,5 +99,7 @@ def register(sub) -> None:  # noqa: ANN001
     pr.add_argument("run_dir", type=Path)
     pr.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     pr.add_argument("--no-write", action="store_true", help="do not write results/")
+    pr.add_argument("--plot", action="store_true",
+                    help="also draw results/profile.png (positioning.png); `guideway report` draws its own")
     add_evaluator_options(pr)
     pr.set_defaults(func=run)
