@@ -65,25 +65,30 @@ def rot(ex, ey, ez, v):
     c, s = np.cos(ey), np.sin(ey); x_, z_ = c * x_ + s * z_, -s * x_ + c * z_
     c, s = np.cos(ez), np.sin(ez); return c * x_ - s * y_, s * x_ + c * y_, z_
 
-def exact(sen, sy, pi, ya, ro, p, q):
-    # heights (um) by exact kinematics, datum pitch re-estimated from the first step (3 iterations)
+def exact(sen, sy, sz, pi, ya, ro, p, q):
+    # heights (um) by exact kinematics, datum pitch re-estimated from the first step (3 iterations):
+    # the chord O1 - O0 = (d1 - d0) - (dR1 - dR0) R0 P seen from the datum capture's frame (dR0^T)
     s = sgn * (sen - sen[:, :1]) * 1000.0
     dl = -s * 1e-3
     ex, ey, ez = ro * 1e-6, ya * 1e-6, pi * 1e-6
     dx = x[1] - x[0] + (lin[1] - lin[0]) * 1e-3
     dy = (sy[:, 1:2] - sy[:, :1]) * 1e-3
+    dz = (sz[:, 1:2] - sz[:, :1]) * 1e-3
     def rows(a, b, c):
-        cx, sx, cy, sy_, cz, sz = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(c), np.sin(c)
-        return (cz * cy, cz * sy_ * sx - sz * cx, cz * sy_ * cx + sz * sx), (sz * cy, sz * sy_ * sx + cz * cx,
-                                                                              sz * sy_ * cx - cz * sx)
+        cx, sx, cy, sy_, cz, sz_ = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(c), np.sin(c)
+        return ((cz * cy, cz * sy_ * sx - sz_ * cx, cz * sy_ * cx + sz_ * sx),
+                (sz_ * cy, sz_ * sy_ * sx + cz * cx, sz_ * sy_ * cx - cz * sx), (-sy_, cy * sx, cy * cx))
     r1, r0 = rows(ex[:, 1:2], ey[:, 1:2], ez[:, 1:2]), rows(ex[:, :1], ey[:, :1], ez[:, :1])
-    (m00, m01, m02), (m10, m11, m12) = ([a - b for a, b in zip(ra, rb)] for ra, rb in zip(r1, r0))
+    m = [[a - b for a, b in zip(ra, rb)] for ra, rb in zip(r1, r0)]
     wx, wy, wz = p
     ez0 = 0.0
     for _ in range(3):
         c, s_ = np.cos(ez0), np.sin(ez0)
         px, py = c * wx - s_ * wy, s_ * wx + c * wy
-        ez0 = np.arctan2(dy - (m10 * px + m11 * py + m12 * wz), dx - (m00 * px + m01 * py + m02 * wz))
+        ch = [d - (row[0] * px + row[1] * py + row[2] * wz) for d, row in zip((dx, dy, dz), m)]
+        ux = r0[0][0] * ch[0] + r0[1][0] * ch[1] + r0[2][0] * ch[2]
+        uy = r0[0][1] * ch[0] + r0[1][1] * ch[1] + r0[2][1] * ch[2]
+        ez0 = np.arctan2(uy, ux)
     cx, cy, cz = rot(0.0, 0.0, ez0, (q[0] - p[0], q[1] - p[1], q[2] - p[2]))
     bx, by, bz = rot(0.0, 0.0, ez0, tuple(B))
     wx, wy, _ = rot(ex, ey, ez, (cx + dl * bx, cy + dl * by, cz + dl * bz))
@@ -92,7 +97,7 @@ def exact(sen, sy, pi, ya, ro, p, q):
     return wx - wx[:, :1], (wy - wy[:, :1]) * 1e3
 
 one = lambda a: a[None, :]
-xo, h0 = exact(one(sensor), one(stry), one(pitch), one(yaw), one(roll), [np.array([[v]]) for v in P],
+xo, h0 = exact(one(sensor), one(stry), one(strz), one(pitch), one(yaw), one(roll), [np.array([[v]]) for v in P],
                [np.array([[v]]) for v in Q])
 xo, h0 = xo[0], h0[0]
 slope = np.gradient(h0, xo)
@@ -104,12 +109,12 @@ for t0 in range(0, trials, m_chunk):
     m = min(m_chunk, trials - t0)
     g = lambda k, sig: rng[k].normal(0.0, sig, (m, n))
     sen = sensor + g("sensor_noise", u[0]) * 1e-3 + rng["sensor_resolution"].uniform(-0.5, 0.5, (m, n)) * u[1] * 1e-3
-    sy = stry + g("stry", u[2]); g("strz", u[2])
+    sy = stry + g("stry", u[2]); sz = strz + g("strz", u[2])
     pi, ya, ro = pitch + g("pitch", u[3]), yaw + g("yaw", u[3]), roll + g("roll", u[3])
     off = rng["offset"].normal(0.0, u[5], (m, 6))
     p = [P[i] + off[:, i:i + 1] for i in range(3)]
     q = [Q[i] + off[:, 3 + i:4 + i] for i in range(3)]
-    _, h = exact(sen, sy, pi, ya, ro, p, q)
+    _, h = exact(sen, sy, sz, pi, ya, ro, p, q)
     dxs = rng["x"].normal(0.0, u[4] * 1e-3, (m, n)); dxs -= dxs[:, :1]
     h = h + slope * dxs
     b = (h[:, -1] - h[:, 0]) / (xo[-1] - xo[0])
