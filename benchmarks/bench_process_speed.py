@@ -15,8 +15,9 @@ interpreter start and imports included on both sides):
   Monte Carlo U to 1e-9 um).
 
 and prints tool / bound at each size, then ``--mc-trials 10000`` against ``--mc-trials 0`` at 200
-stations.  Medians of ``--runs`` runs (>= 5 recommended), tool and bound alternated so that a change of
-the machine's load hits both; peak RSS of the tool from ``os.wait4`` (its ``ru_maxrss``).
+stations, and the Monte Carlo's own cost (tool: 10000 less 0 trials) against the bound's (its run less
+its interpreter start and imports).  Medians of ``--runs`` runs (>= 5 recommended), tool and bound
+alternated so that a change of the machine's load hits both; peak RSS of the tool from ``os.wait4`` (its ``ru_maxrss``).
 ``--source DIR`` measures the tool from another checkout (e.g. an older commit unpacked there).
 
 On machines that set OPENBLAS_CORETYPE (see the environment notes), unset it together with
@@ -133,6 +134,10 @@ print(json.dumps({k: float(v.std(ddof=1)) for k, v in vals.items()} | {"spread_m
 """
 
 
+# the bound's interpreter start and imports alone
+BOUND_START = "import sys; import numpy as np; sys.path.insert(0, sys.argv[1]); import processing.reference_lines"
+
+
 def write_npz(run: Path, path: Path) -> None:
     """The run's channels, geometry and uncertainty inputs as arrays for :data:`BOUND` (untimed)."""
     import numpy as np
@@ -210,13 +215,22 @@ def main() -> int:
         print(f"{n:>8} {trials:>7} {statistics.median(ts):>8.3f} {statistics.median(bs):>8.3f} {ratio:>6.2f} "
               f"{peak:>8.0f}  {check}", flush=True)
     run = make_run(200, args.work)
-    on, off = [], []
+    npz = args.work / "bound-200.npz"
+    write_npz(run, npz)
+    on, off, bound_full, bound_start = [], [], [], []
     for _ in range(args.runs):
         on.append(timed(guideway(args.source, "process", str(run), "--mc-trials", "10000"))[0])
         off.append(timed(guideway(args.source, "process", str(run), "--mc-trials", "0"))[0])
+        bound_full.append(timed([sys.executable, "-c", BOUND, str(ROOT), str(npz), "10000"])[0])
+        bound_start.append(timed([sys.executable, "-c", BOUND_START, str(ROOT)])[0])
     mc_ratio = statistics.median(on) / statistics.median(off)
     print(f"200 stations: --mc-trials 10000 {statistics.median(on):.3f} s, --mc-trials 0 "
           f"{statistics.median(off):.3f} s, ratio {mc_ratio:.2f}")
+    # the Monte Carlo's own cost against the bound's (its run less its interpreter and imports)
+    tool_mc = statistics.median(on) - statistics.median(off)
+    bound_mc = statistics.median(bound_full) - statistics.median(bound_start)
+    print(f"200 stations, 10,000 trials: Monte Carlo {tool_mc:.3f} s (tool, on - off), bound {bound_mc:.3f} s "
+          f"(its run - its start {statistics.median(bound_start):.3f} s), ratio {tool_mc / bound_mc:.2f}")
     print(f"worst tool/bound {worst:.2f} (target {TARGET_RATIO}), MC on/off {mc_ratio:.2f} (target {TARGET_RATIO}); "
           f"load now {os.getloadavg()[0]:.1f}")
     return 0 if ok else 1
