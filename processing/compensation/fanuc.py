@@ -199,8 +199,8 @@ def fanuc_text(
         lines.append(f"PARAM 3626={t.negative_table_start}")
         # 3627 belongs to the table approached against the reference return, which is the control's own
         # parameter 1006#5 ZMI (not written: entering it would change how the machine homes): say which
-        lines.append(f"(REFERENCE RETURN IN {'-' if t.reference_direction < 0 else '+'} DIRECTION, 1006#5 ZMI = "
-                     f"{1 if t.reference_direction < 0 else 0}: 3627 IS THE {'+' if t.reference_direction < 0 else '-'}"
+        sign, zmi, table = ("-", 1, "+") if t.reference_direction == -1 else ("+", 0, "-")
+        lines.append(f"(REFERENCE RETURN IN {sign} DIRECTION, 1006#5 ZMI = {zmi}: 3627 IS THE {table}"
                      " TABLE AT THE REFERENCE)")
         lines.append(f"PARAM 3627={t.reference_offset}")
     lines.append("(POSITIVE DIRECTION)" if t.bidirectional else "(BOTH DIRECTIONS)")
