@@ -368,6 +368,7 @@ class PositioningResult:
     sim: SimulatedMachine | None  # stopped; its axis stays readable (ground truth for tests)
     faults: tuple[str, ...] = ()
     live: LiveDeviation | None = None  # the compensated deviations shown while the run went on
+    live_stopped: str = ""  # why the run was stopped when its live compensation stopped ("" otherwise)
 
 
 def live_deviation_printer(stream: TextIO, unit: str) -> DeviationCallback:
@@ -462,7 +463,7 @@ def run_positioning(
             cleanup.callback(sim.close)
             if predictor is not None:
                 live_run = _start_live(predictor, sim.live_url, stream, cleanup)
-            refuse_faults_that_cannot_fire(sim.faults, sensor=False)
+            refuse_faults_that_cannot_fire(sim.faults, sensor=False, live=predictor is not None)
             url = sim.controller_url
             print(f"simulated machine axis {setup.axis_name} ({setup.trigger.mode} trigger) behind {url}",
                   file=stream)
@@ -490,18 +491,22 @@ def run_positioning(
             live = LiveDeviation(setup.axis_type, setup.environment.to_dict(), show_deviation, first)
             engine = RunEngine(rig, operator, (store, live, *subscribers))
             engine.faults_at_open = open_faults
+            if live_run is not None:  # no point is captured once the compensator has stopped
+                engine.subscribe(live_run)
+                engine.guards.append(live_run.guard)
             with _engine_context(on_engine, engine):
                 outcome = engine.run(positioning_plan(setup, {}, resume=rp))
             if sim is not None:
                 _report_faults(store, sim.faults, stream)
-            if predictor is not None:
-                _finish_live(store, *live_run, stream, sim.live_controller if sim is not None else None)
+            if live_run is not None:
+                _finish_live(store, live_run, stream, sim.live_controller if sim is not None else None)
         finally:
             rig.close()
     finally:
         cleanup.close()
     _print_outcome(outcome, store, out, stream)
-    return PositioningResult(out, outcome, setup, sim, tuple(engine.faults), live)
+    stopped = live_run.stopped_run if live_run is not None else ""
+    return PositioningResult(out, outcome, setup, sim, tuple(engine.faults), live, stopped)
 
 
 def _live_predictor(run: Path | str | None, model: str, setup: PositioningSetup | None, simulate: SimOptions | None,
@@ -530,7 +535,46 @@ def _live_record(predictor: Any) -> dict[str, Any]:
             "sha256": predictor.points_sha256, "applied_by": "simulated controller"}
 
 
-def _start_live(predictor: Any, url: str, stream: TextIO, cleanup: ExitStack) -> tuple[Any, Any, dict[str, Any]]:
+@dataclass
+class _LiveRun:
+    """The compensator of a run, its thread (whose ``out`` receives ``error`` and ``ended_at`` when it ends) and
+    the run's points seen while it ran: a subscriber of the run engine, and its guard."""
+
+    comp: Any
+    thread: Any
+    out: dict[str, Any]
+    points: int = 0  # points recorded (points.csv rows)
+    last_time_s: float | None = None  # time_s of the last of them
+    start_time_s: float | None = None  # the run's start (s since the epoch), the origin of time_s
+    stopped_run: str = ""  # the guard's reason once it stopped the run
+
+    def __call__(self, name: str, doc: dict[str, Any]) -> None:
+        if name == "event":
+            self.points += 1
+            self.last_time_s = doc["data"].get("time_s")
+        elif name == "retract":
+            self.points -= 1
+        elif name == "annotate" and doc.get("key") == "start_time_s":
+            self.start_time_s = doc["value"]
+
+    def cause(self) -> str:
+        """Why the compensator stopped ("" while it runs)."""
+        if "error" in self.out:
+            return str(self.out["error"])
+        return "" if self.thread.is_alive() else (self.comp.stats.reason or "the compensator ended")
+
+    def guard(self) -> str:
+        """Before each device message (:attr:`RunEngine.guards`): the reason to stop the run once the
+        compensator has stopped, so no point is captured without the offset it should have."""
+        cause = self.cause()
+        if cause and not self.stopped_run:
+            self.stopped_run = (f"live compensation stopped after point {self.points} ({cause}); the points after it "
+                                "would not be compensated - the run is stopped; check the live-compensation "
+                                "controller link and measure again")
+        return self.stopped_run
+
+
+def _start_live(predictor: Any, url: str, stream: TextIO, cleanup: ExitStack) -> _LiveRun:
     """The compensator in a thread against the simulated controller; stopped by ``cleanup``."""
     from .live_compensation import LiveCompensator, start_in_thread
 
@@ -544,13 +588,14 @@ def _start_live(predictor: Any, url: str, stream: TextIO, cleanup: ExitStack) ->
     cleanup.callback(stop)
     print(f"live compensation: {predictor.model} model of {predictor.run} against the simulated controller "
           f"at {url} (cycle {comp.cycle_s * 1000:g} ms)", file=stream)
-    return comp, thread, out
+    return _LiveRun(comp, thread, out)
 
 
-def _finish_live(store: RunStore, comp: Any, thread: Any, out: dict[str, Any], stream: TextIO,
-                 controller: Any = None) -> None:
+def _finish_live(store: RunStore, live: _LiveRun, stream: TextIO, controller: Any = None) -> None:
     """Stop the compensator and keep what it did in run.json ``live_compensation`` (with the lag of the
-    offset behind each move the simulated controller measured, ms)."""
+    offset behind each move the simulated controller measured, ms; when it stopped during the run: why,
+    when, and the last point measured while it ran)."""
+    comp, thread, out = live.comp, live.thread, live.out
     comp.stop()
     thread.join(timeout=5)
     stats = comp.stats
@@ -560,9 +605,15 @@ def _finish_live(store: RunStore, comp: Any, thread: Any, out: dict[str, Any], s
     if lags:
         record["lag_ms_median"] = round(1000 * lags[len(lags) // 2], 3)
         record["lag_ms_max"] = round(1000 * lags[-1], 3)
-    if "error" in out:
-        record["error"] = str(out["error"])
-        print(f"warning: live compensation stopped during the run: {out['error']}", file=stream)
+    if "error" in out or live.stopped_run:
+        record["error"] = live.cause()
+        record["ended"] = stats.reason or "stopped during the run"
+        if live.start_time_s is not None and "ended_at" in out:
+            record["stopped_time_s"] = round(out["ended_at"] - live.start_time_s, 6)  # the origin of time_s
+        record["last_compensated_point"] = live.points  # points.csv row (1-based); 0: none
+        record["last_compensated_time_s"] = live.last_time_s
+        if not live.stopped_run:  # it stopped after the last capture: every point was compensated
+            print(f"warning: live compensation stopped after the last point: {out['error']}", file=stream)
     store("annotate", {"key": "live_compensation", "value": record})
 
 

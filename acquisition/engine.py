@@ -9,7 +9,8 @@ States and the transitions allowed between them::
 
 *stop* is the normal end (exit status ``success``), *abort* the operator
 ending early (``abort``, data kept), *fail* a fault that could not be
-recovered (``fail``).  Cleanup (closing the plan, the stop document) always
+recovered (``fail``), or a guard (``RunEngine.guards``) that stopped the run before
+a device message.  Cleanup (closing the plan, the stop document) always
 runs.
 
 Pausing: the operator answers ``"pause"`` to any question, or another thread
@@ -156,6 +157,10 @@ class RunEngine:
         self._started = False
         self.faults: list[str] = []  # device faults met (and recovered or not) in the last run
         self.faults_at_open: list[str] = []  # met while the devices were opened (listed first in ``faults``)
+        # checked before every device message (any thread may make them answer): a non-empty answer ends the
+        # run as failed with it as the reason, before the device is asked (live compensation lost: no point
+        # is captured uncompensated)
+        self.guards: list[Callable[[], str]] = []
         self._handlers: dict[type, Callable[[Any], Any]] = {
             OpenRun: self._open_run,
             Instruct: self._ask,
@@ -372,6 +377,9 @@ class RunEngine:
             raise TypeError(f"unknown plan message {msg!r}")
         if kind not in DEVICE_MESSAGES and kind not in EXTRA_DEVICE_MESSAGES:
             return handler(msg) if handler is not None else extra(self, msg)  # type: ignore[misc]
+        for guard in self.guards:
+            if why := guard():
+                raise _FailRun(why)
         recovered = kind is ReadSensor  # latched-error recovery: controller messages, once per message
         while True:
             try:

@@ -263,8 +263,8 @@ class LiveCompensator:
 
 def start_in_thread(compensator: LiveCompensator, timeout_s: float = 5.0) -> tuple[threading.Thread, dict[str, Any]]:
     """Run ``compensator`` in a daemon thread (simulation: the compensator in the same process as the
-    run); returns the thread and a dict that receives ``stats`` or ``error`` when it ends.  Waits until
-    the compensator has enabled the controller."""
+    run); returns the thread and a dict that receives ``stats`` or ``error`` when it ends, and ``ended_at``
+    (time.time(), s) then.  Waits until the compensator has enabled the controller."""
     ready = threading.Event()
     out: dict[str, Any] = {}
 
@@ -272,8 +272,11 @@ def start_in_thread(compensator: LiveCompensator, timeout_s: float = 5.0) -> tup
         try:
             out["stats"] = compensator.run(ready=ready)
         except Exception as exc:  # reported by the caller  # noqa: BLE001
+            out["ended_at"] = time.time()  # before ``error``: whoever sees ``error`` sees when
             out["error"] = exc
             ready.set()
+        else:
+            out["ended_at"] = time.time()
 
     thread = threading.Thread(target=work, name="live-compensator", daemon=True)
     thread.start()

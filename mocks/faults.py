@@ -4,7 +4,8 @@ Spec syntax (CLI ``--faults`` and tests), comma-separated entries::
 
     DEVICE:KIND@N[xCOUNT][=ARG]
 
-DEVICE is ``sensor`` or ``controller``; the fault starts at the N-th request
+DEVICE is ``sensor``, ``controller`` or ``live`` (the live-compensation interface of a simulated
+controller, mocks/live_controller.py); the fault starts at the N-th request
 to that device (1-based) and lasts COUNT requests (default: every request
 from then on).  When several entries cover the same request the first one in
 the spec applies.  Kinds:
@@ -35,6 +36,9 @@ the spec applies.  Kinds:
   code ARG, default 4 device failure), ``delay`` (reply ARG seconds late),
   ``slow`` (a measurement triggered while active takes ARG seconds, default
   2.5: a slow controller).
+* live (applied by :class:`mocks.live_controller.LiveOffsetController`): ``close`` - instead of
+  answering request N the controller closes the compensator's connection (a lost link: the
+  compensator stops; docs/compensation.md, "Live compensation in simulation").
 
 Contract for emulators: call :meth:`FaultPlan.next_request` exactly once per
 request (command line / frame) and act on the sensor kinds above except
@@ -57,6 +61,7 @@ PORT_KINDS = frozenset({"close"})
 KINDS = {
     "sensor": {"garbage", "drop", "delay", "error", "corrupt", "close"},
     "controller": {"freeze-seq", "beam-loss", "exception", "delay", "drop", "corrupt", "close", "slow"},
+    "live": {"close"},
 }
 # Kinds that are an event rather than a state: without xCOUNT they last this many requests.
 DEFAULT_COUNT = {"beam-loss": 1}
@@ -133,7 +138,7 @@ class FaultPlan:
                 raise FaultSpecError(f"bad fault spec {part!r}; expected DEVICE:KIND@N[xCOUNT][=ARG]")
             dev, kind = m["dev"], m["kind"]
             if dev not in KINDS:
-                raise FaultSpecError(f"unknown device {dev!r} in fault {part!r}; use sensor or controller")
+                raise FaultSpecError(f"unknown device {dev!r} in fault {part!r}; use sensor, controller or live")
             if kind not in KINDS[dev]:
                 raise FaultSpecError(f"unknown {dev} fault {kind!r}; use one of {', '.join(sorted(KINDS[dev]))}")
             at = int(m["at"])

@@ -26,6 +26,7 @@ from collections.abc import Callable
 from pymodbus.constants import ExcCodes
 from pymodbus.simulator import DataType, SimData, SimDevice
 
+from .faults import FaultPlan
 from .modbus_server import ModbusServerThread
 
 # registers (docs/compensation.md), holding, 0-based
@@ -51,7 +52,8 @@ class LiveOffsetController:
     """Register-level behaviour of a controller with a live external offset."""
 
     def __init__(self, *, rotary: bool, start: float = 0.0, timeout_ms: int = 500, word_order: str = "ABCD",
-                 settle_s: float = 1.0, clock: Callable[[], float] = time.monotonic) -> None:
+                 settle_s: float = 1.0, clock: Callable[[], float] = time.monotonic,
+                 faults: FaultPlan | None = None) -> None:
         if word_order not in ("ABCD", "CDAB"):
             raise ValueError(f"word order must be ABCD or CDAB, not {word_order!r}")
         self.rotary = rotary
@@ -72,6 +74,8 @@ class LiveOffsetController:
         self.lags_s: collections.deque[float] = collections.deque(maxlen=100_000)  # publish -> echo written
         self.writes = 0
         self._steady = False  # the last two answers were to the same sample with the same offset
+        self.faults = faults  # ``live:close@N`` entries (mocks/faults.py): the N-th request closes the link
+        self.close_link: Callable[[], None] = lambda: None  # set by start_live_controller: its wire fault
 
     # -- the controller's rules ------------------------------------------------------------------
     @property
@@ -169,6 +173,10 @@ class LiveOffsetController:
                      current_registers: list[int], set_values: list[int] | list[bool] | None) -> ExcCodes | None:
         """pymodbus SimDevice hook, before each access is served: writes only to 8-13."""
         _ = function_code
+        fault = self.faults.next_request("live") if self.faults is not None else None
+        if fault is not None and fault.kind == "close":
+            self.close_link()  # this request is not answered: the connection closes instead
+            return None
         if set_values is not None:
             if address < WRITABLE.start or address + len(set_values) > WRITABLE.stop:
                 return ExcCodes.ILLEGAL_ADDRESS  # the controller's registers are read-only
@@ -183,4 +191,6 @@ class LiveOffsetController:
 def start_live_controller(controller: LiveOffsetController, *, device_id: int = 1, port: int = 0
                           ) -> ModbusServerThread:
     """Serve ``controller`` over Modbus TCP on 127.0.0.1 (``port`` 0 = ephemeral); ``.url``, ``.stop()``."""
-    return ModbusServerThread(controller.device(device_id), port=port)
+    server = ModbusServerThread(controller.device(device_id), port=port)
+    controller.close_link = lambda: server.wire_faults.arm("close")
+    return server

@@ -17,17 +17,22 @@ def parse_faults(spec: str | None) -> FaultPlan:
         raise UserError(str(exc)) from exc
 
 
-def refuse_faults_that_cannot_fire(plan: FaultPlan | None, *, sensor: bool, sensor_requests: int | None = None
-                                   ) -> None:
+def refuse_faults_that_cannot_fire(plan: FaultPlan | None, *, sensor: bool, sensor_requests: int | None = None,
+                                   live: bool = False) -> None:
     """A one-line :class:`UserError` for fault entries that certainly cannot fire.
 
     ``sensor`` False: the run has no displacement sensor, so no sensor entry can fire.
     ``sensor_requests``: how many requests the sensor gets in a fault-free run (None: not known,
     e.g. an operator may redo stations).  Requests beyond it come only from retries after a fault,
     so when every entry is a sensor entry past it, none can fire.  Anything less certain is left
-    to :func:`fault_report` at the end of the run."""
+    to :func:`fault_report` at the end of the run.
+    ``live`` False: no live-compensation interface is served, so no ``live`` entry can fire."""
     if plan is None or not plan.faults:
         return
+    f = next((f for f in plan.faults if f.device == "live"), None)
+    if f is not None and not live:
+        raise UserError(f"--faults {f.spec()} cannot fire: this run has no live compensation; add "
+                        "--live-compensation AS_FOUND_RUN (a positioning run) or inject controller faults")
     if not sensor:
         f = next((f for f in plan.faults if f.device == "sensor"), None)
         if f is not None:
@@ -46,5 +51,6 @@ def fault_report(plan: FaultPlan | None) -> dict[str, Any] | None:
     if plan is None or not plan.faults:
         return None
     return {"spec": ",".join(f.spec() for f in plan.faults),
-            "requests": {d: plan.requests(d) for d in ("sensor", "controller")},
+            "requests": {d: plan.requests(d) for d in ("sensor", "controller", "live")
+                         if d != "live" or any(f.device == "live" for f in plan.faults)},
             "not_fired": [f.spec() for f in plan.unfired()]}

@@ -120,7 +120,8 @@ def start_simulated_machine(setup: PositioningSetup, *, seed: int = 0, noise: bo
         model = {"errors": axis_errors(setup, noise), "environment": _environment(setup.simulation)}
     if compensation is not None and live_compensation:
         raise UserError("a compensation table and live compensation at once: choose one")
-    live = LiveOffsetController(rotary=setup.axis_type == "rotary", start=setup.datum) if live_compensation else None
+    live = LiveOffsetController(rotary=setup.axis_type == "rotary", start=setup.datum,
+                                faults=plan) if live_compensation else None
     compensator: Any = Compensator(compensation, start=setup.datum) if compensation is not None else live
     axis = MachineAxis(stops, rotary=setup.axis_type == "rotary", feed_per_min=setup.feed_per_min,
                        dwell_s=setup.trigger.dwell_s, handshake=HANDSHAKE[setup.trigger.mode], datum=setup.datum,

@@ -70,6 +70,9 @@ def run(args: argparse.Namespace) -> int:
     res = acquire(args.kind, source, str(args.setup), args.out, simulate=sim, auto=args.auto, resume=resume,
                   stream=sys.stdout, stdin=sys.stdin, **live)  # this call's streams, not import time's
     status = res.outcome.exit_status
+    stopped = getattr(res, "live_stopped", "")
+    if status == "fail" and stopped:  # not to be resumed: its later points would be measured uncompensated
+        raise UserError(f"{stopped}; the {res.outcome.num_events} point(s) captured before are kept in {args.out}")
     if status == "fail":
         raise UserError(f"run failed ({res.outcome.reason}); the points captured are in {args.out}; "
                         f"continue with: guideway acquire --resume {args.out}")
