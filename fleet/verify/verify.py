@@ -33,7 +33,7 @@ from saved_runs.evaluation.positioning import PositioningEvaluation
 from saved_runs.evaluation.value_uncertainty import axis_value_spread
 from saved_runs.export.predict import Prediction, predict_as_left
 from saved_runs.export.provenance import Provenance, find_export
-from saved_runs.store.compensation import compensation_text, run_compensation
+from saved_runs.store.compensation import compensation_text, live_compensation_stopped, run_compensation
 from saved_runs.store.reader import LoadedRun, load_run
 
 from ..compare.compare import Comparison
@@ -309,6 +309,8 @@ def _left_record(run: LoadedRun) -> dict[str, Any]:
     if not rec["active"]:
         raise UserError(f"AS_LEFT {run.path} was measured with no compensation table active (run.json compensation): "
                         "load the table and measure again (--compensation FILE), or use guideway compare")
+    if stopped := live_compensation_stopped(run.meta):  # no gain is claimed from it
+        raise UserError(f"AS_LEFT {run.path}: {stopped}")
     return rec
 
 

@@ -16,11 +16,13 @@ NOT_RECORDED: dict[str, Any] = {"active": None, "recorded": False}
 
 def run_compensation(meta: dict[str, Any]) -> dict[str, Any]:
     """The run's compensation record; :data:`NOT_RECORDED` for a run that has none (older runs),
-    or whose record is not an object."""
+    or whose record is not an object.  ``live_stopped``: :func:`live_compensation_stopped`'s line, for a run
+    whose live compensation stopped while it went on."""
     rec = meta.get("compensation")
     if not isinstance(rec, dict) or "active" not in rec:
         return dict(NOT_RECORDED)
-    return {**rec, "recorded": True}
+    stopped = live_compensation_stopped(meta)
+    return {**rec, "recorded": True, **({"live_stopped": stopped} if stopped else {})}
 
 
 def compensation_text(record: dict[str, Any]) -> str:
@@ -34,4 +36,24 @@ def compensation_text(record: dict[str, Any]) -> str:
         fmt += f" COMP_FILE_TYPE {record['comp_file_type']}"
     sha = str(record.get("sha256", ""))[:12]
     by = f", applied by the {record['applied_by']}" if record.get("applied_by") == "simulated controller" else ""
-    return f"controller compensation: {record.get('file', '?')} ({fmt}, sha256 {sha}…){by}"
+    stopped = f"; {record['live_stopped']}" if record.get("live_stopped") else ""
+    return f"controller compensation: {record.get('file', '?')} ({fmt}, sha256 {sha}…){by}{stopped}"
+
+
+def live_compensation_stopped(meta: dict[str, Any]) -> str:
+    """One line when run.json ``live_compensation`` says the live compensator stopped while the run went on
+    ("" otherwise): such a run is no as-left measurement (docs/compensation.md, "Live compensation in
+    simulation").  Since the acquisition stops the run before its next point, the points recorded were
+    compensated but the run is incomplete; a run written before that (no ``last_compensated_point``) went on
+    uncompensated.  A compensator that stopped after the run's last point leaves a complete, valid run."""
+    live = meta.get("live_compensation")
+    if not isinstance(live, dict) or not live.get("error"):
+        return ""
+    last = live.get("last_compensated_point")
+    if not isinstance(last, int) or isinstance(last, bool):
+        return (f"live compensation stopped during the run ({live['error']}): the points after it were measured "
+                "uncompensated, the run is no as-left measurement; measure again")
+    if meta.get("status") == "complete" and last == meta.get("points"):
+        return ""
+    return (f"live compensation stopped after point {last} ({live['error']}): the run was stopped there, it is no "
+            "complete as-left measurement; measure again")

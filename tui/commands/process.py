@@ -36,10 +36,14 @@ def run(args: argparse.Namespace) -> int:
 
 
 def warn_about_run(run_: Any, doing: str) -> None:
-    """The run's read warnings and, for an unfinished run, that only its recorded points are used
-    (``doing``: e.g. "processing the")."""
+    """The run's read warnings, a live compensation that stopped during the run and, for an unfinished run,
+    that only its recorded points are used (``doing``: e.g. "processing the")."""
+    from saved_runs.store.compensation import live_compensation_stopped
+
     for w in run_.warnings:
         print(f"guideway: warning: {w}", file=sys.stderr)
+    if stopped := live_compensation_stopped(run_.meta):
+        print(f"guideway: warning: {run_.path}: {stopped}", file=sys.stderr)
     if run_.meta.get("status") != "complete":
         print(f"guideway: warning: run status is {run_.meta.get('status')!r}; {doing} "
               f"{run_.n_points} point(s) recorded", file=sys.stderr)
