@@ -491,7 +491,7 @@ def run_positioning(
             live = LiveDeviation(setup.axis_type, setup.environment.to_dict(), show_deviation, first)
             engine = RunEngine(rig, operator, (store, live, *subscribers))
             engine.faults_at_open = open_faults
-            if live_run is not None:  # no point is captured once the compensator has stopped
+            if live_run is not None:  # no capture starts once the compensator has stopped
                 engine.subscribe(live_run)
                 engine.guards.append(live_run.guard)
             with _engine_context(on_engine, engine):
@@ -564,7 +564,7 @@ class _LiveRun:
         return "" if self.thread.is_alive() else (self.comp.stats.reason or "the compensator ended")
 
     def guard(self) -> str:
-        """Before each device message (:attr:`RunEngine.guards`): the reason to stop the run once the
+        """Before each capture (:attr:`RunEngine.guards`): the reason to stop the run once the
         compensator has stopped, so no point is captured without the offset it should have."""
         cause = self.cause()
         if cause and not self.stopped_run:

@@ -10,7 +10,7 @@ States and the transitions allowed between them::
 *stop* is the normal end (exit status ``success``), *abort* the operator
 ending early (``abort``, data kept), *fail* a fault that could not be
 recovered (``fail``), or a guard (``RunEngine.guards``) that stopped the run before
-a device message.  Cleanup (closing the plan, the stop document) always
+a capture.  Cleanup (closing the plan, the stop document) always
 runs.
 
 Pausing: the operator answers ``"pause"`` to any question, or another thread
@@ -157,9 +157,10 @@ class RunEngine:
         self._started = False
         self.faults: list[str] = []  # device faults met (and recovered or not) in the last run
         self.faults_at_open: list[str] = []  # met while the devices were opened (listed first in ``faults``)
-        # checked before every device message (any thread may make them answer): a non-empty answer ends the
-        # run as failed with it as the reason, before the device is asked (live compensation lost: no point
-        # is captured uncompensated)
+        # checked before every capture (TriggerInterferometer; any thread may change their answer): a non-empty
+        # answer ends the run as failed with it as the reason, before the capture starts (live compensation
+        # lost: no point is captured uncompensated).  Not before the rest of a capture (ReadAngle, ReadSensor):
+        # a point whose capture began is recorded whole
         self.guards: list[Callable[[], str]] = []
         self._handlers: dict[type, Callable[[Any], Any]] = {
             OpenRun: self._open_run,
@@ -377,9 +378,10 @@ class RunEngine:
             raise TypeError(f"unknown plan message {msg!r}")
         if kind not in DEVICE_MESSAGES and kind not in EXTRA_DEVICE_MESSAGES:
             return handler(msg) if handler is not None else extra(self, msg)  # type: ignore[misc]
-        for guard in self.guards:
-            if why := guard():
-                raise _FailRun(why)
+        if kind is TriggerInterferometer:
+            for guard in self.guards:
+                if why := guard():
+                    raise _FailRun(why)
         recovered = kind is ReadSensor  # latched-error recovery: controller messages, once per message
         while True:
             try:

@@ -194,3 +194,16 @@ def test_invalid_sensor_reading_fails_with_clear_message() -> None:
     eng = RunEngine(Rig(BadSensor(), FakeController()), AutoOperator(), (col,))  # type: ignore[arg-type]
     out = eng.run(straightness_plan(setup(3), {}))
     assert out.exit_status == "fail" and "displacement sensor reading invalid" in out.reason
+
+
+def test_a_guard_fails_the_run_before_the_next_capture() -> None:
+    # the guard turns (another thread: a live compensator that stopped) right after the 2nd trigger: the 2nd
+    # point's capture is finished (its sensor read) and recorded, the run fails before the 3rd trigger is sent
+    ctrl = FakeController()
+    eng, col = engine(ctrl)
+    eng.guards.append(lambda: "compensator gone" if ctrl.n >= 2 else "")
+    out = eng.run(straightness_plan(setup(5), {}))
+    assert out.exit_status == "fail" and out.reason == "compensator gone" and out.num_events == 2
+    assert ctrl.n == 2  # no 3rd trigger reached the controller
+    assert col.of("stop")[0]["reason"] == "compensator gone" and eng.faults == []  # not a device fault: no retry
+    assert eng.state_log[-2:] == [RunState.FAILED, RunState.IDLE]
