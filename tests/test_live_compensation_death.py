@@ -48,7 +48,7 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict:
     assert res.returncode == 0, res.stderr
     # ~2 requests per 8 ms cycle, a few cycles per point: the link goes well inside the 180 points
     dead_res = guideway("acquire", "positioning", "--setup", DATA / "rotary-left.toml", "--out", dead, "--simulate",
-                        "--auto", "--seed", 1, "--live-compensation", found, "--faults", "live:close@300")
+                        "--auto", "--seed", 1, "--live-compensation", found, "--faults", "live:close@500")
     return {"found": found, "dead": dead, "res": dead_res}
 
 
@@ -82,9 +82,9 @@ def test_points_before_the_death_are_kept_and_none_after(runs: dict) -> None:
     assert live["last_compensated_time_s"] == pytest.approx(float(rows[-1]["time_s"]), abs=1e-9)
     # no capture started after the compensator stopped: the last reading is at most the capture's own time after
     # it (a Modbus round trip; bound: the controller's heartbeat timeout, 500 ms, within which it still applies
-    # the last offset), and the fault fired exactly at the 300th request
+    # the last offset), and the fault fired exactly at the 500th request
     assert float(rows[-1]["time_s"]) <= live["stopped_time_s"] + 0.5
-    assert meta["fault_plan"]["requests"]["live"] == 300 and meta["fault_plan"]["not_fired"] == []
+    assert meta["fault_plan"]["requests"]["live"] == 500 and meta["fault_plan"]["not_fired"] == []
     assert meta["compensation"]["active"] is True  # it was measured compensated, as far as it went
 
 
