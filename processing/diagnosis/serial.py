@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal, stats
+from scipy import optimize, signal, stats
 
 PHI_MAX = 0.98  # beyond this a run holds too few independent errors to say anything
 # φ̂ is used only when the correlation is detectable (one-sided 1 % test of φ = 0, SE of φ̂ ≈ 1/√n): whitening
@@ -55,7 +55,7 @@ def r_times(q: np.ndarray, phi: float) -> np.ndarray:
 def _half_shift(v: np.ndarray) -> np.ndarray:
     """A v with vᵀ A v = Σ v_t v_{t+1} (A: ½ on the first off-diagonals)."""
     out = np.zeros_like(v)
-    out[1:] += v[:-1] / 2
+    out[1:] = v[:-1] / 2
     out[:-1] += v[1:] / 2
     return out
 
@@ -117,8 +117,12 @@ def matched_phi(residual_ordered: np.ndarray, basis_ordered: np.ndarray, low: fl
         step = gap(phi)
         phi = min(max(phi - step, low), PHI_MAX)
         if abs(step) < 1e-3:
-            break
-    return phi
+            return phi
+    # a short run or many fitted columns: the slope is far from 1 (0.34 at 10 points, 3 columns) and the fixed
+    # point still 0.04 away after 6 steps; the root is bracketed (gap(low) < 0), so a bracketing search ends it
+    if gap(PHI_MAX) <= 0:
+        return PHI_MAX
+    return float(optimize.brentq(gap, low, PHI_MAX))
 
 
 def ar1_coefficient(residual_ordered: np.ndarray, basis_ordered: np.ndarray,
@@ -136,8 +140,8 @@ def ar1_coefficient(residual_ordered: np.ndarray, basis_ordered: np.ndarray,
         phi = matched_phi(residual_ordered, basis_ordered, low=PHI_Z / math.sqrt(n))
         return 0.0 if math.isnan(phi) else phi
     own = matched_phi(residual_ordered, basis_ordered) if n >= 8 else math.nan
-    pairs = [(e.at_interval(interval_s), e.n) for e in history] + ([(own, n)] if not math.isnan(own) else [])
-    pairs = [(phi, m) for phi, m in pairs if not math.isnan(phi)]
+    pairs = [(e.at_interval(interval_s), e.n) for e in history] + [(own, n)]
+    pairs = [(phi, m) for phi, m in pairs if not math.isnan(phi)]  # own: nan under 8 points or below -PHI_MAX
     total = sum(m for _, m in pairs)
     if total == 0:
         return 0.0
