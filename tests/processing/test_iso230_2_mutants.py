@@ -11,7 +11,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from processing.iso230_2 import deviation_arrays, evaluate_iso230_2, iso230_2_from_arrays
+from processing.iso230_2 import (
+    PER_TARGET_COLUMNS,
+    check_target_count,
+    deviation_arrays,
+    evaluate_iso230_2,
+    iso230_2_from_arrays,
+)
 
 T5 = [0.0, 100.0, 200.0, 300.0, 400.0]  # 5 targets over 400 mm: meets the target rule, no note
 UP2 = [[1.0, 2.0], [0.5, 1.5], [-1.0, 0.0], [2.0, 2.5], [0.0, 1.0]]
@@ -52,7 +58,8 @@ def test_hand_made_three_targets_five_runs_all_statistics() -> None:
     assert b[0] < 0 and ri[0] == k * su[0] + k * sd[0] + abs(b[0]) and ri[1] == 2 * k * su[1]  # the data's design
     pt = r.per_target
     for col, want in (("mean_up", mu), ("mean_down", md), ("reversal", b), ("s_up", su), ("s_down", sd),
-                      ("R_i", ri), ("mean_bi", [(mu[i] + md[i]) / 2 for i in range(3)])):
+                      ("R_i", ri), ("R_i_up", [2 * k * v for v in su]), ("R_i_down", [2 * k * v for v in sd]),
+                      ("mean_bi", [(mu[i] + md[i]) / 2 for i in range(3)])):
         assert pt[col].tolist() == pytest.approx(want), col
     hi = [max(mu[i] + k * su[i], md[i] + k * sd[i]) for i in range(3)]
     lo = [min(mu[i] - k * su[i], md[i] - k * sd[i]) for i in range(3)]
@@ -149,6 +156,8 @@ def test_to_dict_keys_and_values() -> None:
         "bidirectional", 2, 2, True, [])
     assert d["targets"][1]["mean_up"] == 1.0 and d["targets"][1]["s_down"] == pytest.approx(math.sqrt(0.125))
     assert d["targets"][1]["R_i_down"] == pytest.approx(2 * 3.0 * math.sqrt(0.125))
+    assert d["targets"][1]["R_i_up"] == pytest.approx(2 * 3.0 * math.sqrt(0.5))
+    assert list(d["targets"][0]) == list(PER_TARGET_COLUMNS)
 
 
 def _long(rows: list[tuple]) -> pd.DataFrame:
@@ -204,3 +213,10 @@ def test_evaluate_long_table_with_a_run_missing_in_one_direction() -> None:
     ref = iso230_2_from_arrays([0.0, 100.5], [[1.0, 1.5, 0.5], [2.0, 2.5, 3.0]], [[-1.0, -0.5], [0.5, 1.0]],
                                axis_type="rotary")
     assert r.to_dict() == ref.to_dict() and (r.runs_up, r.runs_down) == (3, 2)
+
+
+def test_check_target_count_accepts_text_targets() -> None:
+    """Targets as read from a text file count like numbers (3 targets over 500 mm: 5 required)."""
+    note = check_target_count(["0", "250", "500"])
+    assert note is not None and note.startswith("3 targets over 500 mm (at least 5 required)")
+    assert check_target_count(["0", "250", "500"], "rotary").startswith("3 targets (at least 5 required)")
