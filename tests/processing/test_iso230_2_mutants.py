@@ -17,6 +17,7 @@ from processing.iso230_2 import (
     deviation_arrays,
     evaluate_iso230_2,
     iso230_2_from_arrays,
+    required_targets,
 )
 
 T5 = [0.0, 100.0, 200.0, 300.0, 400.0]  # 5 targets over 400 mm: meets the target rule, no note
@@ -220,3 +221,9 @@ def test_check_target_count_accepts_text_targets() -> None:
     note = check_target_count(["0", "250", "500"])
     assert note is not None and note.startswith("3 targets over 500 mm (at least 5 required)")
     assert check_target_count(["0", "250", "500"], "rotary").startswith("3 targets (at least 5 required)")
+
+
+def test_required_targets_default_is_linear() -> None:
+    """5 per metre up to 2 m (1500 mm: 7.5 -> 8), about one every 250 mm beyond (3000 mm: 12 intervals, 13)."""
+    assert (required_targets(1500.0), required_targets(3000.0)) == (8, 13)
+    assert required_targets(3000.0, "rotary") == 5
