@@ -356,7 +356,7 @@ def deviation_arrays(deviations: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, 
     tg = deviations["target"].to_numpy(dtype=float)
     dr = deviations["direction"].to_numpy(dtype=np.int64)
     rn = deviations["run"].to_numpy(dtype=np.int64)
-    dev = deviations["deviation"].to_numpy(dtype=float)
+    dev = deviations["deviation"].to_numpy(dtype=float)  # pragma: no mutate (equivalent: stored into floats)
     if ti.size == 0:
         raise ValueError("no points")
     if not np.all((dr == 1) | (dr == -1)):

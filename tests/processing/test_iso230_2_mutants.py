@@ -186,8 +186,9 @@ def test_deviation_arrays_none_deviation_is_missing() -> None:
 
 def test_deviation_arrays_ties_in_target_keep_index_order() -> None:
     rows = [(3, 50.0, 1, 1, 3.0), (1, 50.0, 1, 1, 1.0), (2, 0.0, 1, 1, 2.0)]
-    index, targets, up, _ = deviation_arrays(_long(rows))
+    index, targets, up, down = deviation_arrays(_long(rows))
     assert index.tolist() == [2, 1, 3] and targets.tolist() == [0.0, 50.0, 50.0] and up[:, 0].tolist() == [2, 1, 3]
+    assert down.dtype == np.float64 and np.isnan(down).all()  # no ↓ point: NaN holes
 
 
 @pytest.mark.parametrize(("rows", "message"), [
@@ -226,4 +227,5 @@ def test_check_target_count_accepts_text_targets() -> None:
 def test_required_targets_default_is_linear() -> None:
     """5 per metre up to 2 m (1500 mm: 7.5 -> 8), about one every 250 mm beyond (3000 mm: 12 intervals, 13)."""
     assert (required_targets(1500.0), required_targets(3000.0)) == (8, 13)
+    assert required_targets(1201.0) == 7  # 6.005 targets -> 7
     assert required_targets(3000.0, "rotary") == 5
