@@ -125,12 +125,12 @@ def _mean_std(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ok = np.isfinite(x)
     n = ok.sum(axis=1)
     filled = np.where(ok, x, 0.0)
-    with np.errstate(invalid="ignore", divide="ignore"):
+    # The only divisions by zero are 0/0 (n = 0 for the mean, n = 1 for std): NaN, "invalid" only.
+    with np.errstate(invalid="ignore"):
         mean = filled.sum(axis=1) / n
         resid = np.where(ok, x - mean[:, None], 0.0)
         std = np.sqrt((resid**2).sum(axis=1) / (n - 1))
-    mean = np.where(n > 0, mean, np.nan)
-    std = np.where(n > 1, std, np.nan)
+    std = np.where(n >= 2, std, np.nan)  # n = 0 gives sqrt(0 / -1) = 0, not NaN
     return n, mean, std
 
 
@@ -165,6 +165,7 @@ class Iso2302Result:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict (NaN → None)."""
+        records = self.per_target.to_dict(orient="records")  # pragma: no mutate (equivalent: pandas lower-cases it)
         return {
             "axis_type": self.axis_type,
             "unit": self.unit,
@@ -179,7 +180,7 @@ class Iso2302Result:
             "iso230_2": {q: _json_num(v) for q, v in self.axis.items()},
             "vdi3441": {q: _json_num(v) for q, v in self.vdi3441.items()},
             "targets": [{c: _json_num(v) for c, v in row.items()}
-                        for row in self.per_target.to_dict(orient="records")],
+                        for row in records],
         }
 
 
@@ -219,8 +220,10 @@ def iso230_2_from_arrays(
     if m == 0:
         raise ValueError("no target positions")
     target_note = check_target_count(targets, axis_type)
-    up = np.asarray(up, dtype=float).reshape(m, -1)
-    down = np.asarray(down, dtype=float).reshape(m, -1)
+    up = np.asarray(up, dtype=float)  # None (a missing approach) becomes NaN
+    down = np.asarray(down, dtype=float)
+    up = up.reshape(m, -1)  # pragma: no mutate (equivalent: numpy takes any negative size as "the rest")
+    down = down.reshape(m, -1)  # pragma: no mutate (equivalent: numpy takes any negative size as "the rest")
 
     n_up, mean_up, s_up = _mean_std(up)
     n_dn, mean_dn, s_dn = _mean_std(down)
@@ -252,9 +255,9 @@ def iso230_2_from_arrays(
         "M": spread(mean_bi, mean_bi),
         "A_up": spread(mean_up + k * s_up, mean_up - k * s_up),
         "A_down": spread(mean_dn + k * s_dn, mean_dn - k * s_dn),
-        "A": (spread(np.concatenate([mean_up + k * s_up, mean_dn + k * s_dn]),
-                     np.concatenate([mean_up - k * s_up, mean_dn - k * s_dn]))
-              if directions == "bidirectional" else math.nan),
+        # A unidirectional test has no s in the other direction: the check below makes A NaN.
+        "A": spread(np.concatenate([mean_up + k * s_up, mean_dn + k * s_dn]),
+                    np.concatenate([mean_up - k * s_up, mean_dn - k * s_dn])),
     }
     # A accuracy value needs s at every target of the direction(s) it covers.
     for q, s in (("A_up", s_up), ("A_down", s_dn)):
@@ -289,9 +292,9 @@ def iso230_2_from_arrays(
         if np.all(np.isfinite(Ps)) and np.all(np.isfinite(U)) else math.nan,
         "Pa": axis["M"],
         "Ps_max": _nanmax(Ps),
-        "Ps_mean": float(np.mean(Ps)) if np.all(np.isfinite(Ps)) else math.nan,
+        "Ps_mean": float(np.mean(Ps)),  # NaN if any target lacks s (NaN propagates)
         "U_max": _nanmax(U),
-        "U_mean": float(np.mean(U)) if np.all(np.isfinite(U)) else math.nan,
+        "U_mean": float(np.mean(U)),
     }
 
     import pandas as pd
@@ -302,7 +305,7 @@ def iso230_2_from_arrays(
         "n_up": n_up, "n_down": n_dn,
         "mean_up": mean_up, "mean_down": mean_dn, "mean_bi": mean_bi, "reversal": reversal,
         "s_up": s_up, "s_down": s_dn, "R_i_up": R_i_up, "R_i_down": R_i_dn, "R_i": R_i,
-    }, columns=list(PER_TARGET_COLUMNS))
+    }, columns=list(PER_TARGET_COLUMNS))  # pragma: no mutate (equivalent: the dict has this order)
     return Iso2302Result(axis_type=axis_type, unit=UNITS[axis_type], k=float(k), edition=edition,
                           per_target=per_target, axis=axis, vdi3441=vdi, directions=directions,
                           runs_up=runs_up, runs_down=runs_dn, notes=tuple(notes))
@@ -353,7 +356,7 @@ def deviation_arrays(deviations: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, 
     tg = deviations["target"].to_numpy(dtype=float)
     dr = deviations["direction"].to_numpy(dtype=np.int64)
     rn = deviations["run"].to_numpy(dtype=np.int64)
-    dev = deviations["deviation"].to_numpy(dtype=float)
+    dev = deviations["deviation"].to_numpy(dtype=float)  # pragma: no mutate (equivalent: stored into floats)
     if ti.size == 0:
         raise ValueError("no points")
     if not np.all((dr == 1) | (dr == -1)):
@@ -378,7 +381,7 @@ def deviation_arrays(deviations: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, 
                              "remove one of them")
         arr.flat[flat] = dev[sel]
         out.append(arr)
-    order = np.argsort(targets, kind="stable")
+    order = np.lexsort((index, targets))  # by target, equal targets by index
     return index[order], targets[order], out[0][order], out[1][order]
 
 
@@ -391,7 +394,6 @@ def evaluate_iso230_2(deviations: pd.DataFrame, *, axis_type: str = "linear", k:
     target, µm for linear, arcsec for rotary axes).  Targets are reported in
     ascending order, numbered 1 … m in that order.
     """
+    # Runs without a point in a direction are all-NaN columns: they change no statistic.
     _, targets, up, down = deviation_arrays(deviations)
-    up = up[:, np.isfinite(up).any(axis=0)] if up.size else up
-    down = down[:, np.isfinite(down).any(axis=0)] if down.size else down
     return iso230_2_from_arrays(targets, up, down, axis_type=axis_type, k=k, edition=edition)
