@@ -162,11 +162,12 @@ def estimate_datum_pitch(ch: Channels, setup: Setup, ex0: np.ndarray | float,
     r0 = _rows(*(at(c, 0) * 1e-6 for c in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad)))
     m = [[r1[j][k] - r0[j][k] for k in range(3)] for j in range(3)]  # dR1 - dR0
     wx, wy, wz = rotate(ex0, ey0, 0.0, setup.mirror)  # R0 P = Rz(ez0) w
+    d = (dx, dy, dz)
     ez0: np.ndarray | float = 0.0
     for _ in range(DATUM_PITCH_ITERATIONS):
         c, s = np.cos(ez0), np.sin(ez0)
         px, py = c * wx - s * wy, s * wx + c * wy
-        cx, cy, cz = (d - (row[0] * px + row[1] * py + row[2] * wz) for d, row in zip((dx, dy, dz), m, strict=True))
+        cx, cy, cz = (d[j] - (m[j][0] * px + m[j][1] * py + m[j][2] * wz) for j in range(3))
         # dR0^T (O1 - O0): the columns X and Y of dR0 dotted with the chord
         ux = r0[0][0] * cx + r0[1][0] * cy + r0[2][0] * cz
         uy = r0[0][1] * cx + r0[1][1] * cy + r0[2][1] * cz
@@ -250,7 +251,7 @@ def patent_arrays(ch: Channels, setup: Setup) -> tuple[np.ndarray, np.ndarray]:
     ylx_minus_ylx0 = -sensor_height_um(ch.sensor_mm, setup.sign)  # gap sense, um
     ezx = np.asarray(ch.pitch_urad, dtype=float) * 1e-6
     exx = np.asarray(ch.roll_urad, dtype=float) * 1e-6
-    dygx = (ylx_minus_ylx0 - np.asarray(ch.stry_um, dtype=float)
+    dygx = (ylx_minus_ylx0 - np.asarray(ch.stry_um)  # ylx is float64: so is the difference
             + (px - qx) * 1e3 * np.sin(ezx) + (qz - pz) * 1e3 * np.sin(exx))
     return _nominal_x(ch), -dygx
 

@@ -307,3 +307,44 @@ def test_nominal_x_broadcasts_to_the_channels_shape() -> None:
         x, h = fn(ch, setup_of())
         assert x.shape == (2, 7) and h.shape == (2, 7)
         np.testing.assert_array_equal(x, np.broadcast_to(L * cols["station"], (2, 7)))
+
+
+def test_datum_pitch_at_large_angles_with_p_at_the_block_origin() -> None:
+    """With P at the block origin the chord O1 - O0 is d1 - d0 and the estimate needs no iteration:
+    exact at 20-50 mrad, where every element of dR0 weighs."""
+    datum = (0.02, -0.03, 0.05)
+    r0 = rot(*datum)
+    a0, a1 = np.array([0.01, 0.025, -0.04]), np.array([-0.03, 0.015, 0.035])
+    d0 = np.array([0.01, -0.02, 0.03])
+    d1 = d0 + L * (rot(*a0) @ r0 @ np.array([1.0, 0.0, 0.0]))
+    ch = Channels(x_mm=np.array([0.0, L]), lin_um=np.array([d0[0], d1[0] - L]) * 1e3,
+                  stry_um=np.array([d0[1], d1[1]]) * 1e3, strz_um=np.array([d0[2], d1[2]]) * 1e3,
+                  roll_urad=np.array([a0[0], a1[0]]) * 1e6, yaw_urad=np.array([a0[1], a1[1]]) * 1e6,
+                  pitch_urad=np.array([a0[2], a1[2]]) * 1e6, sensor_mm=np.zeros(2), first_step=1)
+    setup = Setup((0.0, 0.0, 0.0), Q, (0.0, -1.0, 0.0), "height")
+    np.testing.assert_allclose(estimate_datum_pitch(ch, setup, datum[0], datum[1]), [datum[2]], rtol=1e-12)
+
+
+def test_datum_pitch_iterates_from_zero() -> None:
+    """Three fixed-point iterations from 0 leave < 1e-15 rad at guideway angles."""
+    cols, _ = stepped_run()
+    ez0 = estimate_datum_pitch(Channels.from_points(cols), setup_of(), DATUM[0], DATUM[1])
+    np.testing.assert_allclose(ez0, [DATUM[2]], rtol=1e-11)
+
+
+def test_exact_and_helpers_compute_in_float64_from_float32_channels() -> None:
+    cols, _ = stepped_run()
+    ch32 = Channels(**{c: np.asarray(cols[c], dtype=np.float32) for c in CHANNEL_COLUMNS}, first_step=2)
+    ch64 = Channels(**{c: getattr(ch32, c).astype(np.float64) for c in CHANNEL_COLUMNS}, first_step=2)
+    setup = setup_of((150.0, -300.0, 250.0))
+    for got, want in zip(dec.exact_arrays(ch32, setup), dec.exact_arrays(ch64, setup), strict=True):
+        assert got.dtype == np.float64
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+    s32 = ch32.sensor_mm
+    for sign, k in (("height", 1000.0), ("gap", -1000.0)):
+        h = dec.sensor_height_um(s32, sign)
+        assert h.dtype == np.float64
+        np.testing.assert_allclose(h, (s32.astype(np.float64) - float(s32[0])) * k, rtol=0, atol=1e-12)
+    r = dec.relative_to_first(ch32.stry_um)
+    assert r.dtype == np.float64
+    np.testing.assert_array_equal(r, ch64.stry_um - ch64.stry_um[0])
