@@ -81,11 +81,11 @@ class Channels:
 def first_step_index(points: Points) -> int | None:
     """Row index of the first step: the forward-pass point at the datum's station + 1 (None if absent)."""
     cols = as_columns(points)
-    if row_count(cols) == 0:
+    if not cols:
         return None
     st = np.asarray(cols["station"], dtype=int)
     fwd = np.asarray(cols["pass"], dtype=int) == 0 if "pass" in cols else np.ones(len(st), dtype=bool)
-    hits = np.flatnonzero(fwd & (st == st[0] + 1))
+    hits = np.flatnonzero(fwd & (st == st[:1] + 1))  # st[:1]: no datum station without rows
     return int(hits[0]) if hits.size else None
 
 
@@ -160,13 +160,14 @@ def estimate_datum_pitch(ch: Channels, setup: Setup, ex0: np.ndarray | float,
     dz = (at(ch.strz_um, i) - at(ch.strz_um, 0)) * 1e-3
     r1 = _rows(*(at(c, i) * 1e-6 for c in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad)))
     r0 = _rows(*(at(c, 0) * 1e-6 for c in (ch.roll_urad, ch.yaw_urad, ch.pitch_urad)))
-    m = [[a - b for a, b in zip(ra, rb, strict=True)] for ra, rb in zip(r1, r0, strict=True)]  # dR1 - dR0
+    m = [[r1[j][k] - r0[j][k] for k in range(3)] for j in range(3)]  # dR1 - dR0
     wx, wy, wz = rotate(ex0, ey0, 0.0, setup.mirror)  # R0 P = Rz(ez0) w
+    d = (dx, dy, dz)
     ez0: np.ndarray | float = 0.0
     for _ in range(DATUM_PITCH_ITERATIONS):
         c, s = np.cos(ez0), np.sin(ez0)
         px, py = c * wx - s * wy, s * wx + c * wy
-        cx, cy, cz = (d - (row[0] * px + row[1] * py + row[2] * wz) for d, row in zip((dx, dy, dz), m, strict=True))
+        cx, cy, cz = (d[j] - (m[j][0] * px + m[j][1] * py + m[j][2] * wz) for j in range(3))
         # dR0^T (O1 - O0): the columns X and Y of dR0 dotted with the chord
         ux = r0[0][0] * cx + r0[1][0] * cy + r0[2][0] * cz
         uy = r0[0][1] * cx + r0[1][1] * cy + r0[2][1] * cz
@@ -250,7 +251,7 @@ def patent_arrays(ch: Channels, setup: Setup) -> tuple[np.ndarray, np.ndarray]:
     ylx_minus_ylx0 = -sensor_height_um(ch.sensor_mm, setup.sign)  # gap sense, um
     ezx = np.asarray(ch.pitch_urad, dtype=float) * 1e-6
     exx = np.asarray(ch.roll_urad, dtype=float) * 1e-6
-    dygx = (ylx_minus_ylx0 - np.asarray(ch.stry_um, dtype=float)
+    dygx = (ylx_minus_ylx0 - np.asarray(ch.stry_um)  # ylx is float64: so is the difference
             + (px - qx) * 1e3 * np.sin(ezx) + (qz - pz) * 1e3 * np.sin(exx))
     return _nominal_x(ch), -dygx
 
@@ -291,10 +292,11 @@ def datum_angles_of(ch: Channels, setup: Setup) -> DatumAnglesUsed:
     """The datum angles :func:`exact_arrays` takes for these channels (one run, 1-D channels)."""
     angles = datum_angles_rad(ch, setup)
     source, used = {}, []
-    for axis, given, rad in zip(DATUM_AXES, setup.datum_urad, angles, strict=True):
+    for k, axis in enumerate(DATUM_AXES):  # the three axes of datum_urad and angles, in order
+        given, rad = setup.datum_urad[k], angles[k]
         estimated = axis == "pitch" and ch.first_step is not None
         source[axis] = "measured" if given is not None else ("estimated" if estimated else "assumed")
-        used.append(float(given) if given is not None else float(np.asarray(rad).reshape(-1)[0]) * 1e6)
+        used.append(float(given) if given is not None else np.asarray(rad).item() * 1e6)
     return DatumAnglesUsed(*used, source=source)
 
 
