@@ -56,6 +56,24 @@ def strict_vertices(x: list[float], z: list[float], upper: bool) -> list[int]:
     return out
 
 
+def exact_hull(x: np.ndarray, z: np.ndarray, upper: bool) -> list[int]:
+    """Strict upper (lower) hull vertices of points with strictly increasing x, in exact rational
+    arithmetic (monotone chain on Fractions: no rounding, so no tolerance)."""
+    s = 1 if upper else -1
+    fx = [Fraction(v) for v in x]
+    fz = [Fraction(v) for v in z]
+    hull: list[int] = []
+    for i in range(len(fx)):
+        while len(hull) >= 2:
+            a, b = hull[-2], hull[-1]
+            if s * ((fx[b] - fx[a]) * (fz[i] - fz[a]) - (fz[b] - fz[a]) * (fx[i] - fx[a])) >= 0:
+                hull.pop()
+            else:
+                break
+        hull.append(i)
+    return hull
+
+
 # --- end-point and least-squares lines -------------------------------------------------------------
 
 
@@ -167,6 +185,17 @@ def test_hulls_of_a_large_tent_drop_the_points_on_its_edges() -> None:
     assert minimum_zone_line(x, h).straightness_um == pytest.approx(want, abs=1e-9)
     assert minimum_zone_many(x, h[None, :])[0] == pytest.approx(want, abs=1e-9)
 
+
+@pytest.mark.parametrize("a", [3e-15, 1e-13])
+def test_prefilter_keeps_every_vertex_of_a_shallow_tilted_parabola(a: float) -> None:
+    """Adversarial for the prefilter's tolerance: x = 1e5 mm + 0..2499, h = -1e6 + 10 x + a (x - xm)^2 um,
+    a curvature so small that hundreds of hull vertices lie within a few ulp of their chords.  Every
+    vertex of the exact (rational) hulls must survive the prefilter."""
+    x = 1e5 + np.arange(2500.0)
+    z = -1e6 + 10.0 * x + a * (x - x.mean()) ** 2
+    want = set(exact_hull(x, z, True)) | set(exact_hull(x, z, False))
+    assert len(want) > 200
+    assert want <= set(reference_lines._prefilter(x, z).tolist())
 
 def test_qhull_candidates_of_a_flat_set_are_its_ends() -> None:
     assert reference_lines._qhull_candidates(np.arange(10.0), np.full(10, 3.0)).tolist() == [0, 9]
