@@ -238,19 +238,20 @@ def _hull_rows(x: np.ndarray, z: np.ndarray, upper: bool) -> tuple[np.ndarray, n
 
 
 def _pack(xs: np.ndarray, zs: np.ndarray, keep: np.ndarray, count: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The kept entries of each row moved to the left, in order; each row padded with its last kept point."""
+    """The kept entries of each row moved to the left, in order; each row padded with its last kept point
+    (the callers mask everything at and after a row's count, so the padding is never read)."""
     m = len(xs)
     width = int(count.max())
     pos = np.cumsum(keep, axis=1) - 1
-    last = np.arange(m), count - 1
+    last = np.arange(m), count - 1  # pragma: no mutate (equivalent: padding is never read)
     r, c = np.nonzero(keep)
     nx = np.zeros((m, width))
     nz = np.zeros((m, width))
     nx[r, pos[r, c]] = xs[r, c]
     nz[r, pos[r, c]] = zs[r, c]
-    pad = np.arange(width)[None, :] >= count[:, None]
-    nx = np.where(pad, nx[last][:, None], nx)
-    nz = np.where(pad, nz[last][:, None], nz)
+    pad = np.arange(width)[None, :] >= count[:, None]  # pragma: no mutate (equivalent: padding is never read)
+    nx = np.where(pad, nx[last][:, None], nx)  # pragma: no mutate (equivalent: padding is never read)
+    nz = np.where(pad, nz[last][:, None], nz)  # pragma: no mutate (equivalent: padding is never read)
     return nx, nz
 
 
@@ -263,9 +264,9 @@ def _record_points(x: np.ndarray, r: np.ndarray) -> np.ndarray:
     end-point slope a tilted profile keeps few such running maxima (from the left or from the
     right).  The tolerance keeps a vertex whose sheared value rounds below a record.
     """
-    span = float(x[-1] - x[0])
+    span = float(x[-1] - x[0])  # pragma: no mutate (equivalent: any shear)
     rt = np.ascontiguousarray(r.T)  # (n, m): the running maxima then run along contiguous rows of trials
-    rc = rt - ((rt[-1] - rt[0]) / span)[None, :] * x[:, None]
+    rc = rt - ((rt[-1] - rt[0]) / span)[None, :] * x[:, None]  # pragma: no mutate (equivalent: any shear)
     left = np.maximum.accumulate(rc, axis=0)
     right = np.maximum.accumulate(rc[::-1], axis=0)[::-1]
     rc += 1e-12 * (np.max(np.abs(rc), axis=0) + 1.0)  # the tolerance

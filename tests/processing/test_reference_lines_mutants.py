@@ -247,6 +247,7 @@ def test_large_symmetric_parabola_on_the_qhull_path() -> None:
     h = 1e6 + 0.5 * x + a * x**2
     fit = minimum_zone_line(x, h)
     assert fit.straightness_um == pytest.approx(a * 1500.0**2, rel=1e-9)
+    assert minimum_zone_many(x, np.vstack([h, -h]))[:] == pytest.approx([a * 1500.0**2] * 2, rel=1e-9)
     assert fit.slope_um_per_mm == pytest.approx(0.5, abs=1e-9)
     up, lo = hulls(x, h)
     assert up.tolist() == [0, 3000]
