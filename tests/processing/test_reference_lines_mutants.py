@@ -197,6 +197,16 @@ def test_prefilter_keeps_every_vertex_of_a_shallow_tilted_parabola(a: float) -> 
     assert len(want) > 200
     assert want <= set(reference_lines._prefilter(x, z).tolist())
 
+def test_record_points_keep_every_vertex_of_a_shallow_tilted_parabola() -> None:
+    """The same for minimum_zone_many's record filter: x = -2e5 mm + 0.7 mm steps, h = 1e6 + 3.1 x +
+    1e-11 (x - xm)^2 um; every vertex of the exact upper and lower hulls must be kept."""
+    x = -2e5 + 0.7 * np.arange(600)
+    z = 1e6 + 3.1 * x + 1e-11 * (x - x.mean()) ** 2
+    for sign, upper in ((1.0, True), (-1.0, False)):
+        want = set(exact_hull(x, z, upper))
+        kept = set(np.flatnonzero(reference_lines._record_points(x, sign * z[None, :])[0]).tolist())
+        assert want <= kept
+
 def test_qhull_candidates_of_a_flat_set_are_its_ends() -> None:
     assert reference_lines._qhull_candidates(np.arange(10.0), np.full(10, 3.0)).tolist() == [0, 9]
 
