@@ -308,7 +308,8 @@ def minimum_zone_many(x: np.ndarray, h_rows: np.ndarray) -> np.ndarray:
     hull comes from a binary search over that hull's monotone edge slopes (:func:`_count_below`) and
     the candidate of least width gives the zone.
     """
-    x, h_rows = np.asarray(x, dtype=float), np.atleast_2d(np.asarray(h_rows, dtype=float))
+    x = np.asarray(x, dtype=float)  # pragma: no mutate (equivalent: every use converts to float)
+    h_rows = np.atleast_2d(np.asarray(h_rows, dtype=float))  # pragma: no mutate (equivalent: as x)
     if h_rows.ndim != 2 or x.ndim != 1 or h_rows.shape[1] != len(x):
         raise ValueError("h_rows must have one column per x")
     _check(x, x, 2)
@@ -324,11 +325,11 @@ def minimum_zone_many(x: np.ndarray, h_rows: np.ndarray) -> np.ndarray:
 
 
 def _zone_block(x: np.ndarray, h: np.ndarray) -> np.ndarray:
-    if np.all(np.diff(x) > 0):
+    if np.all(np.diff(x) > 0):  # pragma: no mutate (equivalent: the general path is exact too)
         xu_in = xl_in = x
         hu_in = hl_in = h
     else:  # as hulls(): the highest value of each x for the upper hull, the lowest for the lower
-        order = np.argsort(x, kind="stable")
+        order = np.argsort(x, kind="stable")  # pragma: no mutate (equivalent: max/min of a group ignore order)
         xs = x[order]
         starts = np.flatnonzero(np.r_[True, xs[1:] != xs[:-1]])
         hs = h[:, order]
@@ -336,17 +337,20 @@ def _zone_block(x: np.ndarray, h: np.ndarray) -> np.ndarray:
         hu_in = np.maximum.reduceat(hs, starts, axis=1)
         hl_in = np.minimum.reduceat(hs, starts, axis=1)
     xu, hu, cu = _hull_rows(xu_in, hu_in, True)
-    xl, hl, cl = _hull_rows(xl_in, hl_in, False)
-    with np.errstate(invalid="ignore", divide="ignore"):  # padding: 0/0, masked below
-        su = np.diff(hu, axis=1) / np.diff(xu, axis=1)   # decreasing along each upper hull
-        sl = np.diff(hl, axis=1) / np.diff(xl, axis=1)   # increasing along each lower hull
+    xl, hl, cl = _hull_rows(xl_in, hl_in, False)  # pragma: no mutate (equivalent: None is falsy)
+    # padding: 0/0, masked below
+    with np.errstate(invalid="ignore", divide="ignore"):  # pragma: no mutate (equivalent: never x/0)
+        # decreasing along each upper hull
+        su = np.diff(hu, axis=1) / np.diff(xu, axis=1)  # pragma: no mutate (equivalent: the last axis is the default)
+        # increasing along each lower hull
+        sl = np.diff(hl, axis=1) / np.diff(xl, axis=1)  # pragma: no mutate (equivalent: the last axis is the default)
     eu = np.arange(su.shape[1])[None, :] < (cu - 1)[:, None]
     el = np.arange(sl.shape[1])[None, :] < (cl - 1)[:, None]
     su = np.where(eu, su, -np.inf)
     sl = np.where(el, sl, np.inf)
     slopes = np.concatenate([su, sl], axis=1)
     valid = np.concatenate([eu, el], axis=1)
-    q = np.where(valid, slopes, 0.0)
+    q = np.where(valid, slopes, 0.0)  # pragma: no mutate (equivalent: invalid entries are masked)
     rows = np.arange(len(h))[:, None]
     iu = _count_below(-su, -q)
     il = _count_below(sl, q)

@@ -120,6 +120,22 @@ def test_refusals_name_the_problem(line) -> None:  # type: ignore[no-untyped-def
         line(np.array([2.0, 2.0, 2.0]), np.array([0.0, 1.0, 2.0]))
 
 
+def test_many_refuses_x_that_is_not_one_dimensional() -> None:
+    with pytest.raises(ValueError, match="^h_rows must have one column per x$"):
+        minimum_zone_many(np.zeros((3, 3)), np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="^h_rows must have one column per x$"):
+        minimum_zone_many(np.arange(3.0), np.zeros((2, 4)))
+
+
+def test_many_equals_the_single_line_to_the_last_bit_at_big_offsets() -> None:
+    """minimum_zone_many promises minimum_zone_line's value row by row with the same arithmetic: at
+    x ~ 1e5 mm and h ~ 1e6 um (tilt 10 um/mm) every rounding must match, so the values are equal."""
+    rng = np.random.default_rng(3)
+    x = 1e5 + 0.37 * np.arange(12)
+    rows = -1e6 + 10.0 * x + rng.normal(0.0, 1.0, (50, 12))
+    single = np.array([minimum_zone_line(x, row).straightness_um for row in rows])
+    assert np.array_equal(minimum_zone_many(x, rows), single)
+
 # --- hulls ------------------------------------------------------------------------------------------
 
 
