@@ -308,18 +308,20 @@ def minimum_zone_many(x: np.ndarray, h_rows: np.ndarray) -> np.ndarray:
     hull comes from a binary search over that hull's monotone edge slopes (:func:`_count_below`) and
     the candidate of least width gives the zone.
     """
-    x = np.asarray(x, dtype=float)  # pragma: no mutate (equivalent: every use converts to float)
-    h_rows = np.atleast_2d(np.asarray(h_rows, dtype=float))  # pragma: no mutate (equivalent: as x)
+    x = np.asarray(x, dtype=float)  # unsigned integers would wrap in np.diff
+    # every use of h_rows converts it to float (the reduceat max/min do no arithmetic)
+    h_rows = np.atleast_2d(np.asarray(h_rows, dtype=float))  # pragma: no mutate (equivalent)
     if h_rows.ndim != 2 or x.ndim != 1 or h_rows.shape[1] != len(x):
         raise ValueError("h_rows must have one column per x")
     _check(x, x, 2)
     if not np.all(np.isfinite(h_rows)):
         raise ValueError("x and h must be finite")
-    if np.all(x == x[0]):
+    if np.all(x == x[0]):  # pragma: no mutate (equivalent: x == x[1] everywhere iff x == x[0])
         raise ValueError("all points have the same x")
     out = np.empty(len(h_rows))
-    step = max(1, MANY_BLOCK_ELEMENTS // len(x))
-    for s in range(0, len(h_rows), step):
+    # rows are independent: any block size, or overlapping blocks, give the same values
+    step = max(1, MANY_BLOCK_ELEMENTS // len(x))  # pragma: no mutate (equivalent)
+    for s in range(0, len(h_rows), step):  # pragma: no mutate (equivalent)
         out[s:s + step] = _zone_block(x, h_rows[s:s + step])
     return out
 

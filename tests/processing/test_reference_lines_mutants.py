@@ -136,6 +136,26 @@ def test_many_equals_the_single_line_to_the_last_bit_at_big_offsets() -> None:
     single = np.array([minimum_zone_line(x, row).straightness_um for row in rows])
     assert np.array_equal(minimum_zone_many(x, rows), single)
 
+def test_unsigned_integer_input_does_not_wrap() -> None:
+    """uint16 x running backwards and uint16 heights (raw counts): differences must not wrap around.
+    x = 10, 0, 5 and h = 2, 5, 9: end-point slope (9 - 2) / (5 - 10) = -1.4; minimum zone of three
+    points = vertical distance of the middle x point (5, 9) from the chord (0, 5)-(10, 2): 9 - 3.5 = 5.5
+    (the other two edges leave 11)."""
+    x = np.array([10, 0, 5], dtype=np.uint16)
+    h = np.array([2, 5, 9], dtype=np.uint16)
+    assert endpoint_line(x, h).slope_um_per_mm == pytest.approx(-1.4, abs=1e-12)
+    assert minimum_zone_line(x, h).straightness_um == pytest.approx(5.5, abs=1e-12)
+    assert minimum_zone_many(x, h[None, :])[0] == pytest.approx(5.5, abs=1e-12)
+    xf, hf = x.astype(float), h.astype(float)
+    assert least_squares_line(x, h).slope_um_per_mm == pytest.approx(least_squares_line(xf, hf).slope_um_per_mm)
+
+
+def test_many_refusals_name_the_problem() -> None:
+    with pytest.raises(ValueError, match="^x and h must be finite$"):
+        minimum_zone_many(np.arange(3.0), np.array([[0.0, np.inf, 1.0]]))
+    with pytest.raises(ValueError, match="^all points have the same x$"):
+        minimum_zone_many(np.full(3, 4.0), np.zeros((1, 3)))
+
 # --- hulls ------------------------------------------------------------------------------------------
 
 
