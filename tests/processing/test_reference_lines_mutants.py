@@ -115,6 +115,9 @@ def test_refusals_name_the_problem(line) -> None:  # type: ignore[no-untyped-def
         line(np.array([1.0]), np.array([1.0]))
     with pytest.raises(ValueError, match="^x and h must be finite$"):
         line(np.array([0.0, 1.0, 2.0]), np.array([0.0, np.nan, 1.0]))
+    for x, h in ((np.arange(3.0), np.arange(4.0)), (np.zeros((2, 2)), np.zeros((2, 2)))):
+        with pytest.raises(ValueError, match="^x and h must be 1-D arrays of the same length$"):
+            line(x, h)
     same = "end points have the same x" if line is endpoint_line else "all points have the same x"
     with pytest.raises(ValueError, match=f"^{same}$"):
         line(np.array([2.0, 2.0, 2.0]), np.array([0.0, 1.0, 2.0]))
