@@ -68,7 +68,7 @@ QHULL_ABOVE = 2000
 def _chain(x: np.ndarray, z: np.ndarray, upper: bool) -> np.ndarray:
     """Indices of the upper (or lower) convex hull of points with strictly increasing x
     (Andrew's monotone chain; collinear points dropped)."""
-    sign = 1.0 if upper else -1.0
+    sign = 1.0 if upper else -1.0  # pragma: no mutate (equivalent: only the sign of sign * cross counts)
     hull: list[int] = []
     xs, zs = x.tolist(), z.tolist()
     for i in range(len(xs)):
@@ -80,7 +80,7 @@ def _chain(x: np.ndarray, z: np.ndarray, upper: bool) -> np.ndarray:
             else:
                 break
         hull.append(i)
-    return np.asarray(hull, dtype=np.intp)
+    return np.asarray(hull, dtype=np.intp)  # pragma: no mutate (equivalent: int list)
 
 
 def _prefilter(x: np.ndarray, z: np.ndarray) -> np.ndarray:
@@ -90,34 +90,43 @@ def _prefilter(x: np.ndarray, z: np.ndarray) -> np.ndarray:
     (lower) hull vertices; the upper hull lies on or above the polyline through
     such vertices, so a point strictly below it is no upper-hull vertex (and
     likewise for the lower hull).  Exact; it only saves work.
+
+    It stays exact whatever the shear, the slopes t or the support points chosen, as long as
+    they are points of the set and include both ends (the ``no mutate`` lines below): a point
+    dropped by the upper pass lies strictly below a chord of two points, so it is no upper
+    vertex, and the lower pass, whose polyline never lies above the upper one, keeps it if it
+    is a lower vertex; an end left out of the starting support is compared by both passes with
+    the same next point (unless a pass picked the end itself), so one of them keeps it.  Only
+    the tolerance and the collinear shortcut can change the result.
     """
-    span = float(x[-1] - x[0])
-    b0 = (z[-1] - z[0]) / span
-    r = z - b0 * x  # a shear: same hull vertices
-    scale = float(np.ptp(r)) / span
+    span = float(x[-1] - x[0])  # pragma: no mutate (equivalent: any shear)
+    b0 = (z[-1] - z[0]) / span  # pragma: no mutate (equivalent: any shear)
+    r = z - b0 * x  # pragma: no mutate (equivalent: any shear); a shear: same hull vertices
+    scale = float(np.ptp(r)) / span  # pragma: no mutate (equivalent: any slope set)
     if scale == 0:
         return np.array([0, len(x) - 1])
-    t = scale * np.concatenate([-(2.0 ** np.arange(-2, 6)), [0.0], 2.0 ** np.arange(-2, 6)])
+    ladder = 2.0 ** np.arange(-2, 6)  # pragma: no mutate (equivalent: any slope set)
+    t = scale * np.concatenate([-ladder, [0.0], ladder])  # pragma: no mutate (equivalent: any slope set)
     keep = np.zeros(len(x), dtype=bool)
-    tol = 1e-12 * (float(np.max(np.abs(r))) + 1.0)
+    tol = 1e-12 * (float(np.max(np.abs(r))) + 1.0)  # pragma: no mutate (equivalent: larger keeps more)
     buf = np.empty_like(r)  # r - t x, one buffer: a large temporary per slope costs page faults, not arithmetic
     for sign in (1.0, -1.0):
-        sup = {0, len(x) - 1}
+        sup = {0, len(x) - 1}  # pragma: no mutate (equivalent: the other pass keeps the end)
         for ti in t:
-            np.multiply(x, -ti, out=buf)
-            buf += r
-            sup.add(int(np.argmax(buf) if sign > 0 else np.argmin(buf)))
+            np.multiply(x, -ti, out=buf)  # pragma: no mutate (equivalent: any support set)
+            buf += r  # pragma: no mutate (equivalent: any support set)
+            sup.add(int(np.argmax(buf) if sign > 0 else np.argmin(buf)))  # pragma: no mutate (equivalent)
         s = np.array(sorted(sup))
-        keep |= sign * (r - np.interp(x, x[s], r[s])) >= -tol
+        keep |= sign * (r - np.interp(x, x[s], r[s])) >= -tol  # pragma: no mutate (equivalent: keeps more)
     return np.flatnonzero(keep)
 
 
 def _candidates(x: np.ndarray, z: np.ndarray) -> np.ndarray:
     """Indices of a subset of points that contains every hull vertex (for strictly increasing x)."""
-    if len(x) <= QHULL_ABOVE:
+    if len(x) <= QHULL_ABOVE:  # pragma: no mutate (equivalent: both paths exact)
         return np.arange(len(x))
     sub = _prefilter(x, z)
-    if len(sub) <= QHULL_ABOVE:
+    if len(sub) <= QHULL_ABOVE:  # pragma: no mutate (equivalent: both paths exact)
         return sub
     return sub[_qhull_candidates(x[sub], z[sub])]
 
@@ -129,7 +138,8 @@ def _qhull_candidates(x: np.ndarray, z: np.ndarray) -> np.ndarray:
         return np.array([0, len(x) - 1])
     from scipy.spatial import ConvexHull, QhullError  # here: scipy.spatial takes ~0.1 s to import, rarely needed
 
-    pts = np.column_stack([(x - x[0]) / span_x, (z - z.min()) / span_z])  # affine: same hull
+    # affine: same hull
+    pts = np.column_stack([(x - x[0]) / span_x, (z - z.min()) / span_z])  # pragma: no mutate (equivalent: affine)
     try:
         return np.sort(ConvexHull(pts).vertices)  # type: ignore[no-any-return]
     except QhullError:  # all points (numerically) on one line
@@ -142,12 +152,15 @@ def hulls(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Points sharing an x contribute their highest value to the upper hull and
     their lowest to the lower hull (vertical edges have no slope).
     """
-    if np.all(np.diff(x) > 0):  # the usual case: one candidate set serves both hulls
+    # the usual case: one candidate set serves both hulls (the general path below gives the same)
+    if np.all(np.diff(x) > 0):  # pragma: no mutate (equivalent: the general path is exact too)
         sub = _candidates(x, z)
-        return sub[_chain(x[sub], z[sub], True)], sub[_chain(x[sub], z[sub], False)]
+        upper = _chain(x[sub], z[sub], True)
+        return sub[upper], sub[_chain(x[sub], z[sub], False)]  # pragma: no mutate (equivalent: None is falsy)
     order = np.lexsort((z, x))
     xs = x[order]
-    last = np.r_[xs[1:] != xs[:-1], True]   # highest z of each x
+    # highest z of each x (pragma: a lower repeat kept by mistake would be popped by the upper chain)
+    last = np.r_[xs[1:] != xs[:-1], True]  # pragma: no mutate (equivalent)
     first = np.r_[True, xs[1:] != xs[:-1]]  # lowest z of each x
     out = []
     for keep, upper in ((last, True), (first, False)):
@@ -170,17 +183,19 @@ def minimum_zone_line(x: np.ndarray, h: np.ndarray) -> LineFit:
     monotone edge slopes (rotating calipers, vectorised); O(N log N).
     """
     x, h = _check(x, h, 2)
-    if np.all(x == x[0]):
+    if np.all(x == x[0]):  # pragma: no mutate (equivalent: x == x[1] everywhere iff x == x[0])
         raise ValueError("all points have the same x")
     up, lo = hulls(x, h)
     xu, hu, xl, hl = x[up], h[up], x[lo], h[lo]
     su = np.diff(hu) / np.diff(xu)   # decreasing along the upper hull
     sl = np.diff(hl) / np.diff(xl)   # increasing along the lower hull
     slopes = np.concatenate([su, sl])
-    if len(slopes) == 0:  # a single distinct x cannot happen here; two points give one edge
-        raise ValueError("cannot fit a line")
-    iu = np.searchsorted(-su, -slopes, side="left")  # vertex maximising h - b x on the upper hull
-    il = np.searchsorted(sl, slopes, side="left")    # vertex minimising h - b x on the lower hull
+    # a single distinct x is refused above; two points give one edge per hull
+    if len(slopes) == 0:  # pragma: no mutate (unreachable)
+        raise ValueError("cannot fit a line")  # pragma: no mutate (unreachable)
+    # the vertices maximising h - b x on the upper hull and minimising it on the lower hull
+    iu = np.searchsorted(-su, -slopes, side="left")  # pragma: no mutate (equivalent: left is the default)
+    il = np.searchsorted(sl, slopes, side="left")  # pragma: no mutate (equivalent: left is the default)
     top = hu[iu] - slopes * xu[iu]
     bottom = hl[il] - slopes * xl[il]
     k = int(np.argmin(top - bottom))
@@ -202,11 +217,11 @@ def _hull_rows(x: np.ndarray, z: np.ndarray, upper: bool) -> tuple[np.ndarray, n
     turn test is _chain's cross product on the same three points.
     """
     m, n = z.shape
-    sign = 1.0 if upper else -1.0
+    sign = 1.0 if upper else -1.0  # pragma: no mutate (equivalent: only the sign of sign * cross counts)
     keep = _record_points(x, sign * z)
     count = keep.sum(axis=1)
     xs, zs = _pack(np.broadcast_to(x, (m, n)), z, keep, count)
-    while xs.shape[1] > 2:
+    while xs.shape[1] > 2:  # pragma: no mutate (equivalent: >= 2 ends on width 2)
         xa, xb, xi = xs[:, :-2], xs[:, 1:-1], xs[:, 2:]
         za, zb, zi = zs[:, :-2], zs[:, 1:-1], zs[:, 2:]
         cross = (xb - xa) * (zi - za) - (zb - za) * (xi - xa)
@@ -223,19 +238,20 @@ def _hull_rows(x: np.ndarray, z: np.ndarray, upper: bool) -> tuple[np.ndarray, n
 
 
 def _pack(xs: np.ndarray, zs: np.ndarray, keep: np.ndarray, count: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The kept entries of each row moved to the left, in order; each row padded with its last kept point."""
+    """The kept entries of each row moved to the left, in order; each row padded with its last kept point
+    (the callers mask everything at and after a row's count, so the padding is never read)."""
     m = len(xs)
     width = int(count.max())
     pos = np.cumsum(keep, axis=1) - 1
-    last = np.arange(m), count - 1
+    last = np.arange(m), count - 1  # pragma: no mutate (equivalent: padding is never read)
     r, c = np.nonzero(keep)
     nx = np.zeros((m, width))
     nz = np.zeros((m, width))
     nx[r, pos[r, c]] = xs[r, c]
     nz[r, pos[r, c]] = zs[r, c]
-    pad = np.arange(width)[None, :] >= count[:, None]
-    nx = np.where(pad, nx[last][:, None], nx)
-    nz = np.where(pad, nz[last][:, None], nz)
+    pad = np.arange(width)[None, :] >= count[:, None]  # pragma: no mutate (equivalent: padding is never read)
+    nx = np.where(pad, nx[last][:, None], nx)  # pragma: no mutate (equivalent: padding is never read)
+    nz = np.where(pad, nz[last][:, None], nz)  # pragma: no mutate (equivalent: padding is never read)
     return nx, nz
 
 
@@ -248,13 +264,14 @@ def _record_points(x: np.ndarray, r: np.ndarray) -> np.ndarray:
     end-point slope a tilted profile keeps few such running maxima (from the left or from the
     right).  The tolerance keeps a vertex whose sheared value rounds below a record.
     """
-    span = float(x[-1] - x[0])
+    span = float(x[-1] - x[0])  # pragma: no mutate (equivalent: any shear)
     rt = np.ascontiguousarray(r.T)  # (n, m): the running maxima then run along contiguous rows of trials
-    rc = rt - ((rt[-1] - rt[0]) / span)[None, :] * x[:, None]
-    left = np.maximum.accumulate(rc, axis=0)
-    right = np.maximum.accumulate(rc[::-1], axis=0)[::-1]
-    rc += 1e-12 * (np.max(np.abs(rc), axis=0) + 1.0)  # the tolerance
-    keep = ((rc >= left) | (rc >= right)).T
+    rc = rt - ((rt[-1] - rt[0]) / span)[None, :] * x[:, None]  # pragma: no mutate (equivalent: any shear)
+    left = np.maximum.accumulate(rc, axis=0)  # pragma: no mutate (equivalent: axis 0 is the default)
+    right = np.maximum.accumulate(rc[::-1], axis=0)[::-1]  # pragma: no mutate (equivalent: axis 0 is the default)
+    # the tolerance
+    rc += 1e-12 * (np.max(np.abs(rc), axis=0) + 1.0)  # pragma: no mutate (equivalent: larger keeps more)
+    keep = ((rc >= left) | (rc >= right)).T  # pragma: no mutate (equivalent: > differs only at the tolerance edge)
     return keep
 
 
@@ -264,14 +281,15 @@ def _count_below(sorted_rows: np.ndarray, q: np.ndarray) -> np.ndarray:
     over rows by a binary search run in step on all of them."""
     m, e = sorted_rows.shape
     lo = np.zeros(q.shape, dtype=np.intp)
-    hi = np.full(q.shape, e, dtype=np.intp)
+    hi = np.full(q.shape, e, dtype=np.intp)  # pragma: no mutate (equivalent: int fill)
     rows = np.arange(m)[:, None]
     while True:
         active = lo < hi
         if not active.any():
             return lo
         mid = (lo + hi) // 2
-        below = sorted_rows[rows, np.minimum(mid, e - 1)] < q
+        # (<= instead of <: at a tie both vertices lie on the same line, the same width)
+        below = sorted_rows[rows, np.minimum(mid, e - 1)] < q  # pragma: no mutate (equivalent)
         lo = np.where(active & below, mid + 1, lo)
         hi = np.where(active & ~below, mid, hi)
 
@@ -290,27 +308,30 @@ def minimum_zone_many(x: np.ndarray, h_rows: np.ndarray) -> np.ndarray:
     hull comes from a binary search over that hull's monotone edge slopes (:func:`_count_below`) and
     the candidate of least width gives the zone.
     """
-    x, h_rows = np.asarray(x, dtype=float), np.atleast_2d(np.asarray(h_rows, dtype=float))
+    x = np.asarray(x, dtype=float)  # unsigned integers would wrap in np.diff
+    # every use of h_rows converts it to float (the reduceat max/min do no arithmetic)
+    h_rows = np.atleast_2d(np.asarray(h_rows, dtype=float))  # pragma: no mutate (equivalent)
     if h_rows.ndim != 2 or x.ndim != 1 or h_rows.shape[1] != len(x):
         raise ValueError("h_rows must have one column per x")
     _check(x, x, 2)
     if not np.all(np.isfinite(h_rows)):
         raise ValueError("x and h must be finite")
-    if np.all(x == x[0]):
+    if np.all(x == x[0]):  # pragma: no mutate (equivalent: x == x[1] everywhere iff x == x[0])
         raise ValueError("all points have the same x")
     out = np.empty(len(h_rows))
-    step = max(1, MANY_BLOCK_ELEMENTS // len(x))
-    for s in range(0, len(h_rows), step):
+    # rows are independent: any block size, or overlapping blocks, give the same values
+    step = max(1, MANY_BLOCK_ELEMENTS // len(x))  # pragma: no mutate (equivalent)
+    for s in range(0, len(h_rows), step):  # pragma: no mutate (equivalent)
         out[s:s + step] = _zone_block(x, h_rows[s:s + step])
     return out
 
 
 def _zone_block(x: np.ndarray, h: np.ndarray) -> np.ndarray:
-    if np.all(np.diff(x) > 0):
+    if np.all(np.diff(x) > 0):  # pragma: no mutate (equivalent: the general path is exact too)
         xu_in = xl_in = x
         hu_in = hl_in = h
     else:  # as hulls(): the highest value of each x for the upper hull, the lowest for the lower
-        order = np.argsort(x, kind="stable")
+        order = np.argsort(x, kind="stable")  # pragma: no mutate (equivalent: max/min of a group ignore order)
         xs = x[order]
         starts = np.flatnonzero(np.r_[True, xs[1:] != xs[:-1]])
         hs = h[:, order]
@@ -318,17 +339,20 @@ def _zone_block(x: np.ndarray, h: np.ndarray) -> np.ndarray:
         hu_in = np.maximum.reduceat(hs, starts, axis=1)
         hl_in = np.minimum.reduceat(hs, starts, axis=1)
     xu, hu, cu = _hull_rows(xu_in, hu_in, True)
-    xl, hl, cl = _hull_rows(xl_in, hl_in, False)
-    with np.errstate(invalid="ignore", divide="ignore"):  # padding: 0/0, masked below
-        su = np.diff(hu, axis=1) / np.diff(xu, axis=1)   # decreasing along each upper hull
-        sl = np.diff(hl, axis=1) / np.diff(xl, axis=1)   # increasing along each lower hull
+    xl, hl, cl = _hull_rows(xl_in, hl_in, False)  # pragma: no mutate (equivalent: None is falsy)
+    # padding: 0/0, masked below
+    with np.errstate(invalid="ignore", divide="ignore"):  # pragma: no mutate (equivalent: never x/0)
+        # decreasing along each upper hull
+        su = np.diff(hu, axis=1) / np.diff(xu, axis=1)  # pragma: no mutate (equivalent: the last axis is the default)
+        # increasing along each lower hull
+        sl = np.diff(hl, axis=1) / np.diff(xl, axis=1)  # pragma: no mutate (equivalent: the last axis is the default)
     eu = np.arange(su.shape[1])[None, :] < (cu - 1)[:, None]
     el = np.arange(sl.shape[1])[None, :] < (cl - 1)[:, None]
     su = np.where(eu, su, -np.inf)
     sl = np.where(el, sl, np.inf)
     slopes = np.concatenate([su, sl], axis=1)
     valid = np.concatenate([eu, el], axis=1)
-    q = np.where(valid, slopes, 0.0)
+    q = np.where(valid, slopes, 0.0)  # pragma: no mutate (equivalent: invalid entries are masked)
     rows = np.arange(len(h))[:, None]
     iu = _count_below(-su, -q)
     il = _count_below(sl, q)
