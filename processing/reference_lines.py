@@ -117,7 +117,7 @@ def _prefilter(x: np.ndarray, z: np.ndarray) -> np.ndarray:
             buf += r  # pragma: no mutate (equivalent: any support set)
             sup.add(int(np.argmax(buf) if sign > 0 else np.argmin(buf)))  # pragma: no mutate (equivalent)
         s = np.array(sorted(sup))
-        keep |= sign * (r - np.interp(x, x[s], r[s])) >= -tol  # pragma: no mutate (equivalent: keeps more)
+        keep |= sign * (r - np.interp(x, x[s], r[s])) >= -tol
     return np.flatnonzero(keep)
 
 
