@@ -25,6 +25,8 @@ from processing.uncertainty import (
     profile_slope,
 )
 
+from .rigid_body import rot  # Rz(ez) Ry(ey) Rx(ex), angles in rad (docs/conventions.md)
+
 ZERO = UncertaintyInputs(sensor_noise_um=0.0, sensor_resolution_um=0.0, straightness_um=0.0, angle_urad=0.0,
                          position_um=0.0, offset_mm=0.0, step_mm=0.0)
 
@@ -190,15 +192,6 @@ def test_summary_statistics_by_their_definitions() -> None:
 
 
 # ---------------------------------------------------------------- monte_carlo
-
-
-def rot(ex: float, ey: float, ez: float) -> np.ndarray:
-    """Rz(ez) Ry(ey) Rx(ex), angles in rad (docs/conventions.md)."""
-    cx, sx, cy, sy, cz, sz = math.cos(ex), math.sin(ex), math.cos(ey), math.sin(ey), math.cos(ez), math.sin(ez)
-    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return rz @ ry @ rx
 
 
 def min_zone_brute(x: np.ndarray, h: np.ndarray) -> float:
