@@ -186,10 +186,12 @@ def _server() -> tuple[subprocess.Popen, int]:
     return proc, int(proc.stdout.readline())
 
 
-def _compensate(run: Path, port: int) -> subprocess.Popen:
-    proc = subprocess.Popen([sys.executable, "-m", "tui.cli", "compensate", "live", str(run), "--controller",
-                             f"modbus-tcp://127.0.0.1:{port}", "--cycle-ms", "4"], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+def _compensate(run: Path, port: int, *, sigint_ignored: bool = False) -> subprocess.Popen:
+    argv = [sys.executable, "-m", "tui.cli", "compensate", "live", str(run), "--controller",
+            f"modbus-tcp://127.0.0.1:{port}", "--cycle-ms", "4"]
+    if sigint_ignored:  # as a non-interactive shell starts a background job: an ignored signal stays so across exec
+        argv = ["sh", "-c", 'trap "" INT; exec "$0" "$@"', *argv]
+    proc = subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert proc.stdout is not None
     assert proc.stdout.readline().startswith("live compensation: spline model of")
     return proc
@@ -227,9 +229,12 @@ def test_cli_exits_3_with_one_line_when_the_server_dies(as_found: Path) -> None:
     assert "Traceback" not in err
 
 
-def test_cli_ctrl_c_writes_offset_zero_before_exit(as_found: Path) -> None:
+@pytest.mark.parametrize("sigint_ignored", [False, True], ids=["sigint-default", "sigint-ignored"])
+def test_cli_ctrl_c_writes_offset_zero_before_exit(as_found: Path, sigint_ignored: bool) -> None:
+    # sigint-ignored: a job started in the background by a script (CI running the suite as one) inherits SIGINT
+    # ignored; before the fix the compensator never saw the Ctrl-C and ran on (this test ran into its 15 s)
     server, port = _server()
-    comp = _compensate(as_found, port)
+    comp = _compensate(as_found, port, sigint_ignored=sigint_ignored)
     try:
         wait_for(lambda: _registers(port)[8] == 1 and _registers(port)[12:14] != [0, 0], timeout_s=10,
                  what="a non-zero offset")

@@ -25,6 +25,8 @@ EXIT_LINK_LOST = 3
 def run(args: argparse.Namespace) -> int:
     from acquisition.live_compensation import LiveCompensator, LiveLinkLost, predictor_from_run
 
+    from .signals import ctrl_c_raises
+
     predictor = predictor_from_run(args.run, args.model)
     comp = LiveCompensator(predictor, args.controller, cycle_ms=args.cycle_ms, max_jump=args.max_jump_um,
                            word_order=args.word_order, stream=None if args.quiet else sys.stdout)
@@ -34,7 +36,8 @@ def run(args: argparse.Namespace) -> int:
               f"{args.cycle_ms:g} ms, jump limit {args.max_jump_um:g} {predictor.unit}; Ctrl+C stops (offset 0)",
               flush=True)
     try:
-        stats = comp.run(max_cycles=args.cycles)
+        with ctrl_c_raises():  # Ctrl-C (SIGINT) writes offset 0 and ends it, even in a job started with SIGINT ignored
+            stats = comp.run(max_cycles=args.cycles)
     except LiveLinkLost as exc:
         print(f"guideway: error: {exc}", file=sys.stderr)
         return EXIT_LINK_LOST

@@ -13,29 +13,10 @@ from __future__ import annotations
 import argparse
 import contextlib
 import itertools
-import signal
 import sys
-import threading
 import time
-from collections.abc import Iterator
 
-
-@contextlib.contextmanager
-def _ctrl_c_raises() -> Iterator[None]:
-    """Ctrl-C (SIGINT) raises KeyboardInterrupt while the block runs, whatever the process inherited.
-
-    ``--follow`` ends only on Ctrl-C; a process started with SIGINT ignored (a background job of a
-    non-interactive shell, and its children) keeps it ignored in Python, and would never end.
-    """
-    if threading.current_thread() is not threading.main_thread():  # only the main thread may set handlers
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
+from .signals import ctrl_c_raises
 
 EXIT_DEVICE_ERROR = 3
 
@@ -57,7 +38,7 @@ def probe(args: argparse.Namespace) -> int:
             "request_timeout_s", "--request-timeout"))
     options = SensorOptions(args.series, args.output)
     # with --follow, Ctrl-C works from before the first line printed to the end
-    with _ctrl_c_raises() if args.follow else contextlib.nullcontext(), \
+    with ctrl_c_raises() if args.follow else contextlib.nullcontext(), \
             open_probe(args.sensor, args.controller, baudrate=args.baud, environment=args.environment,
                        sensor_options=options, timing=timing) as p:
         for line in p.identity_lines():
