@@ -151,10 +151,15 @@ class PtyEndpoint(_Endpoint):
             if not data:
                 continue
             if not self._answer(data, t_in, self._send):
-                # Unplugged: closing the master hangs the driver's side up; then "re-enumerate".
+                # Unplugged: closing the master hangs the driver's side up; the new pair ("re-enumerated")
+                # is opened and the link re-pointed first, so the stable name never dangles at a closed pty
+                # (a driver re-opening it at once, as an unattended retry does, would get ENOENT)
                 with self._fd_lock:
-                    self._close_pair()
+                    old = (self._master, self._slave)
                     self._open_pair()
+                    for fd in old:
+                        with contextlib.suppress(OSError):
+                            os.close(fd)
                 self.link_drops += 1
 
     def _send(self, data: bytes) -> None:
