@@ -86,6 +86,12 @@ def _first_seen(values: np.ndarray) -> np.ndarray:
     return values[np.sort(first)]
 
 
+def _index_in(order: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """For each of ``values``, its index in ``order`` (distinct values holding every one of them)."""
+    sorter = np.argsort(order)
+    return sorter[np.searchsorted(order, values, sorter=sorter)].astype(np.intp)
+
+
 def station_groups(points: Points) -> StationGroups:
     """Group the points by station, stations in forward-pass order (return-only ones at the end)."""
     st = np.asarray(as_columns(points)["station"], dtype=int)
@@ -94,8 +100,7 @@ def station_groups(points: Points) -> StationGroups:
     if not np.any(p) and np.all(np.diff(st) > 0):  # forward pass only, in order: identity
         return StationGroups(st, np.arange(n), np.ones(n, dtype=np.intp), np.zeros(n, dtype=np.intp), True)
     order = _first_seen(np.concatenate([st[p == 0], st[p == 1]]))
-    sorter = np.argsort(order)
-    group = sorter[np.searchsorted(order, st, sorter=sorter)].astype(np.intp)
+    group = _index_in(order, st)
     counts = np.bincount(group, minlength=len(order))
     by_station = np.argsort(group, kind="stable")  # file order within each station
     starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
@@ -139,8 +144,7 @@ def return_pass_summary(points: Points, per_point: Points) -> ReturnPassSummary 
     # the return pass per station (order of first appearance), means of its points
     st = back["station"]
     order = _first_seen(st)
-    sorter = np.argsort(order)
-    idx = sorter[np.searchsorted(order, st, sorter=sorter)]
+    idx = _index_in(order, st)
     counts = np.bincount(idx, minlength=len(order))
     ret = {"station": order}
     for c in ("x_mm", "height_um", "time_s"):
